@@ -1,0 +1,9 @@
+"""Simulated worlds: world files, the pymunk simulator, the scene model and the observation log."""
+
+from .observation_log import ObservationLog, ObservationLogError
+from .scenes import SceneLayout
+from .simulator import Simulator, simulate
+from .world import World, WorldFileError, list_worlds, load_world
+
+__all__ = ["ObservationLog", "ObservationLogError", "SceneLayout", "Simulator", "World",
+           "WorldFileError", "list_worlds", "load_world", "simulate"]

@@ -1,0 +1,174 @@
+"""The observation log: the CSV contract through which odometry and place labels enter SLAM.
+
+Header ``t,dt,v_trans,v_rot,scene_id`` and optionally the ground-truth columns
+``gt_x,gt_y,gt_theta,false_positive``. Reading validates columns, types, finite values and
+monotonic time, and reports a problem as one line naming the file, the line, the column and
+what is wrong (:class:`ObservationLogError`). Writing is atomic (temporary file, then rename).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+REQUIRED_COLUMNS = ("t", "dt", "v_trans", "v_rot", "scene_id")
+GROUND_TRUTH_COLUMNS = ("gt_x", "gt_y", "gt_theta", "false_positive")
+_INT_COLUMNS = {"scene_id", "false_positive"}
+
+
+class ObservationLogError(ValueError):
+    """A malformed observation log. The message is one line: file, line/column, problem."""
+
+
+@dataclass
+class ObservationLog:
+    """One run's observations (what SLAM sees) and optional ground truth (metrics only)."""
+
+    t: np.ndarray
+    dt: np.ndarray
+    v_trans: np.ndarray
+    v_rot: np.ndarray
+    scene_id: np.ndarray
+    gt_x: np.ndarray | None = None
+    gt_y: np.ndarray | None = None
+    gt_theta: np.ndarray | None = None
+    false_positive: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @property
+    def has_ground_truth(self) -> bool:
+        return self.gt_x is not None
+
+    def ground_truth(self) -> np.ndarray:
+        """Ground-truth poses (N, 3): x, y, theta. Raises if the log has none."""
+        if not self.has_ground_truth:
+            raise ValueError("this observation log has no ground-truth columns")
+        return np.column_stack([self.gt_x, self.gt_y, self.gt_theta])
+
+    def columns(self) -> dict[str, np.ndarray]:
+        cols = {c: getattr(self, c) for c in REQUIRED_COLUMNS}
+        if self.has_ground_truth:
+            cols.update({c: getattr(self, c) for c in GROUND_TRUTH_COLUMNS})
+        return cols
+
+    def write_csv(self, path) -> Path:
+        """Write the log atomically. Floats use ``repr`` so a read-back is bit-exact."""
+        cols = self.columns()
+        names = list(cols)
+        lines = [",".join(names)]
+        formatted = [_format_column(name, cols[name]) for name in names]
+        lines.extend(",".join(row) for row in zip(*formatted))
+        return atomic_write_text(path, "\n".join(lines) + "\n")
+
+    @classmethod
+    def read_csv(cls, path) -> "ObservationLog":
+        """Read and validate a log written by anyone (simulator or user)."""
+        path = Path(path)
+        try:
+            text = path.read_text()
+        except FileNotFoundError:
+            raise ObservationLogError(f"{path}: file not found") from None
+        except (OSError, UnicodeDecodeError) as e:
+            raise ObservationLogError(f"{path}: cannot be read ({e})") from None
+        return _parse(path, text)
+
+
+def _format_column(name: str, values: np.ndarray) -> list[str]:
+    if name in _INT_COLUMNS:
+        return [str(int(v)) for v in values]
+    return [repr(float(v)) for v in values]
+
+
+def _parse(path: Path, text: str) -> ObservationLog:
+    rows = list(csv.reader(io.StringIO(text)))
+    rows = [r for r in rows if r and any(c.strip() for c in r)]
+    if not rows:
+        raise ObservationLogError(f"{path}: empty file (expected header {','.join(REQUIRED_COLUMNS)})")
+    header = [h.strip() for h in rows[0]]
+    known = set(REQUIRED_COLUMNS) | set(GROUND_TRUTH_COLUMNS)
+    for h in header:
+        if h not in known:
+            raise ObservationLogError(f"{path}: header: unknown column {h!r} (allowed: {', '.join(sorted(known))})")
+    if len(set(header)) != len(header):
+        raise ObservationLogError(f"{path}: header: repeated column name")
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise ObservationLogError(f"{path}: header: missing column(s) {', '.join(missing)}")
+    gt_present = [c for c in GROUND_TRUTH_COLUMNS if c in header]
+    if gt_present and len(gt_present) != len(GROUND_TRUTH_COLUMNS):
+        absent = [c for c in GROUND_TRUTH_COLUMNS if c not in header]
+        raise ObservationLogError(f"{path}: header: ground-truth columns need all of "
+                                  f"{','.join(GROUND_TRUTH_COLUMNS)}; missing {', '.join(absent)}")
+    data = rows[1:]
+    if not data:
+        raise ObservationLogError(f"{path}: no observations after the header")
+    values = {h: np.empty(len(data), dtype=np.int64 if h in _INT_COLUMNS else float) for h in header}
+    for i, row in enumerate(data):
+        line = i + 2
+        if len(row) != len(header):
+            raise ObservationLogError(f"{path}: line {line}: expected {len(header)} fields, got {len(row)}")
+        for h, cell in zip(header, row):
+            values[h][i] = _parse_cell(path, line, h, cell.strip())
+    _check_semantics(path, values)
+    gt = {c: values.get(c) for c in GROUND_TRUTH_COLUMNS}
+    if gt["false_positive"] is not None:
+        gt["false_positive"] = gt["false_positive"].astype(bool)
+    return ObservationLog(**{c: values[c] for c in REQUIRED_COLUMNS}, **gt)
+
+
+def _parse_cell(path, line, column, cell):
+    if column in _INT_COLUMNS:
+        try:
+            return int(cell)
+        except ValueError:
+            raise ObservationLogError(f"{path}: line {line}, column {column}: not an integer ({cell!r})") from None
+    try:
+        v = float(cell)
+    except ValueError:
+        raise ObservationLogError(f"{path}: line {line}, column {column}: not a number ({cell!r})") from None
+    if not np.isfinite(v):
+        raise ObservationLogError(f"{path}: line {line}, column {column}: not a finite number ({cell!r})")
+    return v
+
+
+def _check_semantics(path, v):
+    def fail(i, column, problem):
+        raise ObservationLogError(f"{path}: line {int(i) + 2}, column {column}: {problem}")
+
+    bad = np.flatnonzero(v["dt"] <= 0)
+    if len(bad):
+        fail(bad[0], "dt", f"must be positive, got {v['dt'][bad[0]]!r}")
+    bad = np.flatnonzero(np.diff(v["t"]) <= 0)
+    if len(bad):
+        fail(bad[0] + 1, "t", f"time must increase strictly ({v['t'][bad[0]]!r} then {v['t'][bad[0] + 1]!r})")
+    bad = np.flatnonzero(v["scene_id"] < -1)
+    if len(bad):
+        fail(bad[0], "scene_id", f"must be >= -1 (-1 = no scene), got {v['scene_id'][bad[0]]}")
+    if "false_positive" in v:
+        bad = np.flatnonzero((v["false_positive"] != 0) & (v["false_positive"] != 1))
+        if len(bad):
+            fail(bad[0], "false_positive", f"must be 0 or 1, got {v['false_positive'][bad[0]]}")
+
+
+def atomic_write_text(path, text: str) -> Path:
+    """Write ``text`` to ``path`` via a temporary file in the same directory and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path

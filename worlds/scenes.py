@@ -1,0 +1,154 @@
+"""Synthetic place recognition: scene numbers computed from the robot's pose.
+
+The paper's simulator reports a *scene number* per tick rather than an image. Here a scene
+cell is a ``cell_size`` square crossed with a heading sector; each cell is assigned a number
+once per world (``layout_seed``), so the same place always looks the same. Realistic defects:
+
+- aliasing: a fraction of the cells near the route shows the number of a distant cell;
+- look-alike regions (the paper's places B and C): a whole rectangle copies another's numbers;
+- blank cells: nothing recognisable in view, reported as -1;
+- flicker: near a cell border the neighbouring cell's number is sometimes reported;
+- false positives: at a given per-tick rate, a previously seen number is reported in a place
+  where it does not belong (flagged in the ground-truth labels only).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import point_segment_distance
+from .world import World
+
+NO_SCENE = -1
+
+
+@dataclass(frozen=True)
+class SceneObservations:
+    """Per-tick output of the scene model (arrays of one length)."""
+
+    scene_id: np.ndarray  # int64, -1 = nothing recognisable
+    false_positive: np.ndarray  # bool, ground truth only
+    true_cell: np.ndarray  # int64 index of the scene cell the robot is in, ground truth only
+
+
+class SceneLayout:
+    """The world's fixed assignment of scene numbers to scene cells."""
+
+    def __init__(self, world: World):
+        s = world.scenes
+        self.cell_size = s.cell_size
+        self.sectors = s.heading_sectors
+        self.nx = int(np.ceil(world.size[0] / s.cell_size))
+        self.ny = int(np.ceil(world.size[1] / s.cell_size))
+        n_cells = self.nx * self.ny * self.sectors
+        rng = np.random.default_rng(s.layout_seed)
+
+        # Distinct numbers to start with, in a scrambled order (numbers carry no position).
+        numbers = rng.permutation(n_cells).astype(np.int64)
+        cx, cy = self.cell_centres()
+
+        # Only cells the route passes near can ever be seen; aliasing is defined over those.
+        edges = world.edge_segments()
+        near_route = point_segment_distance(np.column_stack([cx, cy]), edges).min(axis=1) <= s.cell_size
+        route_cells = np.flatnonzero(np.repeat(near_route, self.sectors))
+
+        for src_rect, dst_rect in s.lookalikes:
+            self._copy_region(numbers, src_rect, dst_rect)
+
+        blank = rng.random(n_cells) < s.blank_rate
+        visible = route_cells[~blank[route_cells]]
+        self.aliased = np.zeros(n_cells, dtype=bool)
+        n_pairs = int(round(s.alias_rate * len(visible) / 2))
+        order = rng.permutation(visible)
+        taken = np.zeros(n_cells, dtype=bool)
+        pairs = 0
+        for i in order:  # once per world: pair cells at least alias_min_distance apart
+            if pairs >= n_pairs:
+                break
+            if taken[i]:
+                continue
+            ci, cj = i // self.sectors, order // self.sectors
+            far = np.hypot(cx[cj] - cx[ci], cy[cj] - cy[ci]) >= s.alias_min_distance
+            candidates = order[far & ~taken[order]]
+            if len(candidates) == 0:
+                continue
+            j = candidates[0]
+            numbers[j] = numbers[i]
+            taken[[i, j]] = True
+            self.aliased[[i, j]] = True
+            pairs += 1
+        numbers[blank] = NO_SCENE
+        self.numbers = numbers
+        self.route_cells = route_cells
+
+    def cell_centres(self):
+        """Centres (x, y) of the position cells, one per (ix, iy) in row-major ix*ny+iy order."""
+        ix, iy = np.meshgrid(np.arange(self.nx), np.arange(self.ny), indexing="ij")
+        return ((ix.ravel() + 0.5) * self.cell_size, (iy.ravel() + 0.5) * self.cell_size)
+
+    def cell_index(self, x, y, theta):
+        """Scene-cell index for poses (vectorised)."""
+        ix = np.clip(np.floor(np.asarray(x) / self.cell_size).astype(np.int64), 0, self.nx - 1)
+        iy = np.clip(np.floor(np.asarray(y) / self.cell_size).astype(np.int64), 0, self.ny - 1)
+        width = 2 * np.pi / self.sectors
+        sector = np.floor(np.mod(np.asarray(theta) + width / 2, 2 * np.pi) / width).astype(np.int64) % self.sectors
+        return (ix * self.ny + iy) * self.sectors + sector
+
+    def _copy_region(self, numbers, src, dst):
+        """Cells in rectangle ``dst`` show the numbers of the cells at the same offset in ``src``."""
+        cs = self.cell_size
+        sx0, sy0 = int(np.floor(src[0] / cs)), int(np.floor(src[1] / cs))
+        dx0, dy0, dx1, dy1 = (int(np.floor(v / cs)) for v in dst)
+        for ix in range(dx0, min(dx1, self.nx)):
+            for iy in range(dy0, min(dy1, self.ny)):
+                jx, jy = sx0 + ix - dx0, sy0 + iy - dy0
+                if 0 <= jx < self.nx and 0 <= jy < self.ny:
+                    d = (ix * self.ny + iy) * self.sectors
+                    s = (jx * self.ny + jy) * self.sectors
+                    numbers[d:d + self.sectors] = numbers[s:s + self.sectors]
+
+
+def observe_scenes(layout: SceneLayout, x, y, theta, rng: np.random.Generator,
+                   flicker_width: float, flicker_prob: float, fp_rate: float) -> SceneObservations:
+    """Scene numbers for a whole trajectory (vectorised over ticks)."""
+    x, y, theta = (np.asarray(a, dtype=float) for a in (x, y, theta))
+    n = len(x)
+    true_cell = layout.cell_index(x, y, theta)
+
+    # Flicker: close to a border, sometimes the cell across it is reported.
+    cs = layout.cell_size
+    fx, fy = np.mod(x, cs), np.mod(y, cs)
+    dist_x = np.minimum(fx, cs - fx)
+    dist_y = np.minimum(fy, cs - fy)
+    near_x = dist_x <= dist_y
+    border = np.where(near_x, dist_x, dist_y)
+    p = flicker_prob * np.clip(1.0 - border / max(flicker_width, 1e-12), 0.0, 1.0) if flicker_width > 0 \
+        else np.zeros(n)
+    u_flicker, u_fp, u_pick = rng.random(n), rng.random(n), rng.random(n)
+    flick = u_flicker < p
+    step_x = np.where(fx < cs / 2, -cs, cs) * (near_x & flick)
+    step_y = np.where(fy < cs / 2, -cs, cs) * (~near_x & flick)
+    seen_cell = layout.cell_index(x + step_x, y + step_y, theta)
+    scene = layout.numbers[seen_cell].copy()
+
+    # False positives: a number seen earlier, reported where it does not belong.
+    false_positive = np.zeros(n, dtype=bool)
+    fp_ticks = np.flatnonzero(u_fp < fp_rate)
+    if len(fp_ticks):
+        valid = scene != NO_SCENE
+        uniq, first = np.unique(np.where(valid, scene, NO_SCENE), return_index=True)
+        keep = uniq != NO_SCENE
+        by_first = uniq[keep][np.argsort(first[keep])]  # numbers in order of first sighting
+        first_sorted = np.sort(first[keep])
+        own = layout.numbers[true_cell]
+        for k in fp_ticks:
+            m = int(np.searchsorted(first_sorted, k))  # numbers first seen before tick k
+            candidates = by_first[:m]
+            candidates = candidates[candidates != own[k]]
+            if len(candidates) == 0:
+                continue
+            scene[k] = candidates[int(u_pick[k] * len(candidates))]
+            false_positive[k] = True
+    return SceneObservations(scene_id=scene, false_positive=false_positive, true_cell=true_cell)

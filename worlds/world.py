@@ -1,0 +1,392 @@
+"""World files: the TOML format, its loader and its validation.
+
+A world file describes one simulated environment (see ``worlds/README.md`` for the format).
+Loading validates everything before anything runs; every problem is reported as one line
+``<file>: <field>: <problem>`` through :class:`WorldFileError`.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .geometry import point_segment_distance, polyline_segments, rectangle_outline, segments_cross
+
+WORLDS_DIR = Path(__file__).resolve().parent
+
+
+class WorldFileError(ValueError):
+    """A world file is malformed or inconsistent. The message is one line: file, field, problem."""
+
+    def __init__(self, path, field_name: str, problem: str):
+        super().__init__(f"{path}: {field_name}: {problem}")
+        self.path, self.field, self.problem = str(path), field_name, problem
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """The simulated robot: a disc driven like a differential-drive base."""
+
+    radius: float = 0.2  # m
+    speed: float = 0.3  # m/s cruise speed (paper: ~0.3 m/s)
+    max_turn_rate_deg: float = 60.0  # deg/s
+    arrive_radius: float = 0.35  # m; a waypoint counts as reached within this distance
+    turnaround_rate: float = 0.01  # per metre driven along corridors of >= 3 m: chance to turn around
+
+
+@dataclass(frozen=True)
+class OdometrySpec:
+    """Wheel odometry model: true body velocities plus constant yaw bias plus white noise."""
+
+    bias_deg_s: float = 0.0  # constant added to v_rot (Figs 8-10 use 1.5 / 3.0 / 6.0)
+    noise_trans: float = 0.01  # m/s, std of Gaussian noise on v_trans per tick
+    noise_rot: float = 0.01  # rad/s, std of Gaussian noise on v_rot per tick
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """Synthetic place recognition: scene numbers computed from the pose.
+
+    Position is quantised into ``cell_size`` squares and heading into ``heading_sectors``;
+    each scene cell gets a number. A fraction ``alias_rate`` of the cells near the route shares
+    its number with a distant cell (aliasing), ``blank_rate`` of them show nothing recognisable
+    (-1). Near cell borders the neighbouring number flickers in. At ``false_positive_rate`` per
+    tick a previously seen number is reported in a place where it does not belong.
+    """
+
+    cell_size: float = 1.0  # m
+    heading_sectors: int = 4
+    alias_rate: float = 0.1
+    alias_min_distance: float = 3.0  # m; aliased cells are at least this far apart
+    blank_rate: float = 0.1
+    flicker_width: float = 0.1  # m from a cell border
+    flicker_prob: float = 0.5  # chance of the neighbour's number right at the border
+    false_positive_rate: float = 0.002  # per tick
+    layout_seed: int = 0  # fixes which number each place shows (a property of the world)
+    lookalikes: tuple = ()  # ((src_rect, dst_rect), ...): dst cells show src cells' numbers
+
+
+@dataclass(frozen=True)
+class World:
+    """A validated world: geometry, route network and simulation defaults."""
+
+    name: str
+    path: str
+    description: str
+    size: tuple[float, float]
+    walls: np.ndarray  # (W, 2, 2) wall segments, obstacles' outlines included
+    obstacles: np.ndarray  # (O, 4) filled rectangles x0, y0, x1, y1
+    start: tuple[float, float, float]  # x, y (m), theta (rad)
+    nodes: dict  # name -> (x, y)
+    edges: tuple  # ((a, b), ...) undirected route edges between node names
+    route_mode: str  # "lap" (drive `tour` forever) or "explore"
+    tour: tuple  # node names driven first (the whole route in "lap" mode)
+    tick_rate: float = 7.0
+    duration: float = 900.0
+    robot: RobotSpec = field(default_factory=RobotSpec)
+    odometry: OdometrySpec = field(default_factory=OdometrySpec)
+    scenes: SceneSpec = field(default_factory=SceneSpec)
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.tick_rate
+
+    def node_xy(self, name: str) -> np.ndarray:
+        return np.asarray(self.nodes[name], dtype=float)
+
+    def edge_segments(self) -> np.ndarray:
+        """Route edges as segments (E, 2, 2)."""
+        return np.array([[self.nodes[a], self.nodes[b]] for a, b in self.edges], dtype=float).reshape(-1, 2, 2)
+
+
+# --- loading ---------------------------------------------------------------------------------
+
+_TOP_KEYS = {"name", "description", "size", "start", "walls", "obstacles", "route",
+             "robot", "sim", "odometry", "scenes"}
+_REQUIRED = ("name", "size", "start", "walls", "route")
+
+
+class _Reader:
+    """Typed access to one TOML table that remembers the field path for error messages."""
+
+    def __init__(self, path, table: dict, prefix: str):
+        self.path, self.table, self.prefix = path, table, prefix
+
+    def fail(self, key: str, problem: str):
+        raise WorldFileError(self.path, f"{self.prefix}{key}", problem)
+
+    def check_keys(self, allowed):
+        for key in self.table:
+            if key not in allowed:
+                self.fail(key, f"unknown key (allowed: {', '.join(sorted(allowed))})")
+
+    def number(self, key, default=None, *, minimum=None, positive=False, maximum=None):
+        if key not in self.table:
+            if default is None:
+                self.fail(key, "missing")
+            return float(default)
+        v = self.table[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.fail(key, f"must be a number, got {v!r}")
+        if not math.isfinite(v):
+            self.fail(key, f"must be finite, got {v!r}")
+        if positive and v <= 0:
+            self.fail(key, f"must be positive, got {v!r}")
+        if minimum is not None and v < minimum:
+            self.fail(key, f"must be >= {minimum}, got {v!r}")
+        if maximum is not None and v > maximum:
+            self.fail(key, f"must be <= {maximum}, got {v!r}")
+        return float(v)
+
+    def integer(self, key, default, *, minimum=None):
+        v = self.table.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, int):
+            self.fail(key, f"must be an integer, got {v!r}")
+        if minimum is not None and v < minimum:
+            self.fail(key, f"must be >= {minimum}, got {v!r}")
+        return v
+
+    def string(self, key, default=None, choices=None):
+        if key not in self.table and default is None:
+            self.fail(key, "missing")
+        v = self.table.get(key, default)
+        if not isinstance(v, str):
+            self.fail(key, f"must be a string, got {v!r}")
+        if choices and v not in choices:
+            self.fail(key, f"must be one of {', '.join(choices)}, got {v!r}")
+        return v
+
+    def vector(self, key, n, value=None, label=None):
+        """A list of ``n`` finite numbers (``value`` given: validate that instead of table[key])."""
+        v = self.table.get(key) if value is None else value
+        name = label or key
+        if v is None:
+            self.fail(name, "missing")
+        if not isinstance(v, list) or len(v) != n or any(
+                isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in v):
+            self.fail(name, f"must be a list of {n} finite numbers, got {v!r}")
+        return [float(x) for x in v]
+
+    def table_of(self, key) -> "_Reader":
+        v = self.table.get(key, {})
+        if not isinstance(v, dict):
+            self.fail(key, f"must be a table, got {v!r}")
+        return _Reader(self.path, v, f"{self.prefix}{key}.")
+
+    def list_of(self, key) -> list:
+        v = self.table.get(key, [])
+        if not isinstance(v, list):
+            self.fail(key, f"must be a list, got {v!r}")
+        return v
+
+
+def resolve_world_path(name_or_path) -> Path:
+    """A shipped world's name (``small_loop``) or a path to a user's ``.toml`` file."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        return p
+    shipped = WORLDS_DIR / f"{name_or_path}.toml"
+    if not shipped.exists():
+        names = ", ".join(list_worlds())
+        raise WorldFileError(name_or_path, "world", f"no such world file or shipped world (shipped: {names})")
+    return shipped
+
+
+def list_worlds() -> list[str]:
+    """Names of the worlds shipped with the package."""
+    return sorted(p.stem for p in WORLDS_DIR.glob("*.toml"))
+
+
+def load_world(name_or_path) -> World:
+    """Load and validate a world by shipped name or file path. Raises :class:`WorldFileError`."""
+    if isinstance(name_or_path, World):
+        return name_or_path
+    path = resolve_world_path(name_or_path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise WorldFileError(path, "file", "not found") from None
+    except tomllib.TOMLDecodeError as e:
+        raise WorldFileError(path, "toml", f"not valid TOML ({e})") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise WorldFileError(path, "file", f"cannot be read ({e})") from None
+    return _parse(path, raw)
+
+
+def _parse(path, raw: dict) -> World:
+    top = _Reader(path, raw, "")
+    top.check_keys(_TOP_KEYS)
+    for key in _REQUIRED:
+        if key not in raw:
+            top.fail(key, "missing")
+    name = top.string("name")
+    size = top.vector("size", 2)
+    if min(size) <= 0:
+        top.fail("size", f"must be positive, got {size}")
+
+    start_t = top.table_of("start")
+    start_t.check_keys({"pose"})
+    sx, sy, sth = start_t.vector("pose", 3)
+
+    walls, obstacles = _parse_walls(top)
+    nodes, edges, mode, tour = _parse_route(top)
+
+    robot_t = top.table_of("robot")
+    robot_t.check_keys(set(RobotSpec.__dataclass_fields__))
+    d = RobotSpec()
+    robot = RobotSpec(
+        radius=robot_t.number("radius", d.radius, positive=True),
+        speed=robot_t.number("speed", d.speed, positive=True),
+        max_turn_rate_deg=robot_t.number("max_turn_rate_deg", d.max_turn_rate_deg, positive=True),
+        arrive_radius=robot_t.number("arrive_radius", d.arrive_radius, positive=True),
+        turnaround_rate=robot_t.number("turnaround_rate", d.turnaround_rate, minimum=0.0),
+    )
+    sim_t = top.table_of("sim")
+    sim_t.check_keys({"tick_rate", "duration"})
+    tick_rate = sim_t.number("tick_rate", 7.0, positive=True)
+    duration = sim_t.number("duration", 900.0, positive=True)
+
+    odo_t = top.table_of("odometry")
+    odo_t.check_keys(set(OdometrySpec.__dataclass_fields__))
+    odometry = OdometrySpec(
+        bias_deg_s=odo_t.number("bias_deg_s", 0.0),
+        noise_trans=odo_t.number("noise_trans", OdometrySpec.noise_trans, minimum=0.0),
+        noise_rot=odo_t.number("noise_rot", OdometrySpec.noise_rot, minimum=0.0),
+    )
+    scenes = _parse_scenes(top)
+
+    world = World(name=name, path=str(path), description=top.string("description", ""),
+                  size=(size[0], size[1]), walls=walls, obstacles=obstacles,
+                  start=(sx, sy, math.radians(sth)), nodes=nodes, edges=edges, route_mode=mode,
+                  tour=tour, tick_rate=tick_rate, duration=duration, robot=robot,
+                  odometry=odometry, scenes=scenes)
+    _check_consistency(path, world)
+    return world
+
+
+def _parse_walls(top: _Reader):
+    walls_t = top.table_of("walls")
+    walls_t.check_keys({"segments", "polylines", "rectangles"})
+    parts = []
+    for i, s in enumerate(walls_t.list_of("segments")):
+        x0, y0, x1, y1 = walls_t.vector(None, 4, value=s, label=f"segments[{i}]")
+        if math.hypot(x1 - x0, y1 - y0) < 1e-9:
+            walls_t.fail(f"segments[{i}]", "zero-length wall")
+        parts.append(np.array([[[x0, y0], [x1, y1]]]))
+    for i, pl in enumerate(walls_t.list_of("polylines")):
+        if not isinstance(pl, list) or len(pl) < 2:
+            walls_t.fail(f"polylines[{i}]", "must be a list of at least two [x, y] points")
+        pts = [walls_t.vector(None, 2, value=p, label=f"polylines[{i}][{j}]") for j, p in enumerate(pl)]
+        seg = polyline_segments(pts)
+        lengths = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1)
+        if np.any(lengths < 1e-9):
+            walls_t.fail(f"polylines[{i}][{int(np.argmin(lengths)) + 1}]", "zero-length wall (repeated point)")
+        parts.append(seg)
+    for i, r in enumerate(walls_t.list_of("rectangles")):
+        parts.append(rectangle_outline(*_rect(walls_t, r, f"rectangles[{i}]")))
+    if not parts:
+        walls_t.fail("segments", "a world needs at least one wall")
+
+    obs_t = top.table_of("obstacles")
+    obs_t.check_keys({"rectangles"})
+    obstacles = np.array([_rect(obs_t, r, f"rectangles[{i}]") for i, r in enumerate(obs_t.list_of("rectangles"))],
+                         dtype=float).reshape(-1, 4)
+    parts += [rectangle_outline(*o) for o in obstacles]
+    return np.concatenate(parts).astype(float), obstacles
+
+
+def _rect(reader: _Reader, value, label):
+    x0, y0, x1, y1 = reader.vector(None, 4, value=value, label=label)
+    if x1 <= x0 or y1 <= y0:
+        reader.fail(label, f"rectangle needs x0 < x1 and y0 < y1, got {value!r}")
+    return x0, y0, x1, y1
+
+
+def _parse_route(top: _Reader):
+    route_t = top.table_of("route")
+    route_t.check_keys({"nodes", "edges", "mode", "tour"})
+    nodes_t = route_t.table_of("nodes")
+    if not nodes_t.table:
+        route_t.fail("nodes", "missing or empty")
+    nodes = {k: tuple(nodes_t.vector(k, 2)) for k in nodes_t.table}
+    edges = []
+    for i, e in enumerate(route_t.list_of("edges")):
+        if not (isinstance(e, list) and len(e) == 2 and all(isinstance(n, str) for n in e)):
+            route_t.fail(f"edges[{i}]", f"must be a pair of node names, got {e!r}")
+        for n in e:
+            if n not in nodes:
+                route_t.fail(f"edges[{i}]", f"unknown node {n!r}")
+        if e[0] == e[1]:
+            route_t.fail(f"edges[{i}]", "edge from a node to itself")
+        edges.append((e[0], e[1]))
+    if not edges:
+        route_t.fail("edges", "missing or empty")
+    mode = route_t.string("mode", "explore", choices=("lap", "explore"))
+    tour = route_t.list_of("tour")
+    for i, n in enumerate(tour):
+        if n not in nodes:
+            route_t.fail(f"tour[{i}]", f"unknown node {n!r}")
+    undirected = {frozenset(e) for e in edges}
+    for i, (a, b) in enumerate(zip(tour, tour[1:])):
+        if frozenset((a, b)) not in undirected:
+            route_t.fail(f"tour[{i + 1}]", f"no edge between {a!r} and {b!r}")
+    if mode == "lap" and (len(tour) < 3 or tour[0] != tour[-1]):
+        route_t.fail("tour", "lap mode needs a closed tour (first node repeated last)")
+    return nodes, tuple(edges), mode, tuple(tour)
+
+
+def _parse_scenes(top: _Reader) -> SceneSpec:
+    t = top.table_of("scenes")
+    t.check_keys(set(SceneSpec.__dataclass_fields__))
+    d = SceneSpec()
+    lookalikes = []
+    for i, pair in enumerate(t.list_of("lookalikes")):
+        if not (isinstance(pair, list) and len(pair) == 2):
+            t.fail(f"lookalikes[{i}]", "must be a pair of rectangles [[x0,y0,x1,y1], [x0,y0,x1,y1]]")
+        src = _rect(t, pair[0], f"lookalikes[{i}][0]")
+        dst = _rect(t, pair[1], f"lookalikes[{i}][1]")
+        lookalikes.append((src, dst))
+    return SceneSpec(
+        cell_size=t.number("cell_size", d.cell_size, positive=True),
+        heading_sectors=t.integer("heading_sectors", d.heading_sectors, minimum=1),
+        alias_rate=t.number("alias_rate", d.alias_rate, minimum=0.0, maximum=1.0),
+        alias_min_distance=t.number("alias_min_distance", d.alias_min_distance, minimum=0.0),
+        blank_rate=t.number("blank_rate", d.blank_rate, minimum=0.0, maximum=1.0),
+        flicker_width=t.number("flicker_width", d.flicker_width, minimum=0.0),
+        flicker_prob=t.number("flicker_prob", d.flicker_prob, minimum=0.0, maximum=1.0),
+        false_positive_rate=t.number("false_positive_rate", d.false_positive_rate, minimum=0.0, maximum=1.0),
+        layout_seed=t.integer("layout_seed", d.layout_seed, minimum=0),
+        lookalikes=tuple(lookalikes),
+    )
+
+
+def _check_consistency(path, w: World):
+    """Geometry checks: start pose clear of walls, route edges do not cross walls."""
+    start = np.array([w.start[:2]])
+    clearance = point_segment_distance(start, w.walls).min()
+    if clearance < w.robot.radius:
+        raise WorldFileError(path, "start.pose", f"robot at ({w.start[0]}, {w.start[1]}) overlaps a wall "
+                                                 f"(clearance {clearance:.3f} m < radius {w.robot.radius} m)")
+    for o in w.obstacles:
+        if o[0] <= w.start[0] <= o[2] and o[1] <= w.start[1] <= o[3]:
+            raise WorldFileError(path, "start.pose", f"inside obstacle {o.tolist()}")
+    if not (0 <= w.start[0] <= w.size[0] and 0 <= w.start[1] <= w.size[1]):
+        raise WorldFileError(path, "start.pose", f"outside the world's size {list(w.size)}")
+    crossing = segments_cross(w.edge_segments(), w.walls)
+    if crossing.any():
+        i, j = np.argwhere(crossing)[0]
+        a, b = w.edges[i]
+        raise WorldFileError(path, f"route.edges[{i}]", f"edge {a!r}-{b!r} crosses a wall "
+                                                       f"({w.walls[j].ravel().round(3).tolist()})")
+    for name, xy in w.nodes.items():
+        c = point_segment_distance(np.array([xy]), w.walls).min()
+        if c < w.robot.radius:
+            raise WorldFileError(path, f"route.nodes.{name}", f"too close to a wall ({c:.3f} m < robot radius)")
+    for o_i, o in enumerate(w.obstacles):
+        for name, xy in w.nodes.items():
+            if o[0] <= xy[0] <= o[2] and o[1] <= xy[1] <= o[3]:
+                raise WorldFileError(path, f"route.nodes.{name}", f"inside obstacle rectangles[{o_i}]")
