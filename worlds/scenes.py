@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import point_segment_distance
 from .world import World
 
 NO_SCENE = -1
@@ -49,10 +48,8 @@ class SceneLayout:
         numbers = rng.permutation(n_cells).astype(np.int64)
         cx, cy = self.cell_centres()
 
-        # Only cells the route passes near can ever be seen; aliasing is defined over those.
-        edges = world.edge_segments()
-        near_route = point_segment_distance(np.column_stack([cx, cy]), edges).min(axis=1) <= s.cell_size
-        route_cells = np.flatnonzero(np.repeat(near_route, self.sectors))
+        # Aliasing is defined over the cells the robot sees when driving the route network.
+        route_cells = self._route_cells(world.edge_segments())
 
         for src_rect, dst_rect in s.lookalikes:
             self._copy_region(numbers, src_rect, dst_rect)
@@ -82,6 +79,21 @@ class SceneLayout:
         numbers[blank] = NO_SCENE
         self.numbers = numbers
         self.route_cells = route_cells
+
+    def _route_cells(self, edges: np.ndarray) -> np.ndarray:
+        """Scene cells seen along the route edges, in both directions, up to 0.4 m off the line."""
+        cells = []
+        for a, b in edges:
+            d = b - a
+            length = float(np.hypot(*d))
+            u = np.linspace(0.0, 1.0, max(2, int(length / 0.1) + 1))[:, None]
+            normal = np.array([-d[1], d[0]]) / length
+            heading = np.arctan2(d[1], d[0])
+            for offset in (-0.4, 0.0, 0.4):
+                p = a + u * d + offset * normal
+                for th in (heading, heading + np.pi):
+                    cells.append(self.cell_index(p[:, 0], p[:, 1], np.full(len(p), th)))
+        return np.unique(np.concatenate(cells))
 
     def cell_centres(self):
         """Centres (x, y) of the position cells, one per (ix, iy) in row-major ix*ny+iy order."""

@@ -48,7 +48,10 @@ class Simulator:
 
     def _apply_command(self, body: pymunk.Body, gravity, damping, dt):
         v, w = self._command
-        body.velocity = (v * math.cos(body.angle), v * math.sin(body.angle))
+        # pymunk moves the body by this velocity on the next step while the heading turns by
+        # w*dt: aim along the midpoint heading so the motion is a unicycle's (as odometry assumes).
+        heading = body.angle + 0.5 * w * dt
+        body.velocity = (v * math.cos(heading), v * math.sin(heading))
         body.angular_velocity = w
 
     def run(self, n_ticks: int, progress: Callable[[int, int], None] | None = None) -> np.ndarray:
