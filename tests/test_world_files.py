@@ -1,0 +1,86 @@
+"""World files: every shipped world loads; every malformed one fails with one clear line."""
+
+import re
+
+import pytest
+
+from worlds import WorldFileError, list_worlds, load_world
+
+GOOD = """
+name = "tiny"
+size = [6.0, 4.0]
+[start]
+pose = [1.0, 1.0, 0.0]
+[walls]
+rectangles = [[0.0, 0.0, 6.0, 4.0]]
+segments = [[3.0, 2.5, 3.0, 4.0]]
+[obstacles]
+rectangles = [[4.0, 0.5, 4.5, 1.0]]
+[route]
+mode = "explore"
+nodes = { A = [1.0, 1.0], B = [5.0, 2.0], C = [1.0, 3.0] }
+edges = [["A", "B"], ["A", "C"]]
+[robot]
+speed = 0.3
+[odometry]
+bias_deg_s = 1.5
+"""
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "world.toml"
+    p.write_text(text)
+    return p
+
+
+def test_shipped_worlds_load():
+    names = list_worlds()
+    assert {"small_loop", "office_floor", "full_floor", "open_plan"} <= set(names)
+    sizes = {n: load_world(n).size for n in names}
+    assert sizes["small_loop"] == (7.0, 7.0)
+    assert sizes["office_floor"] == (25.0, 13.0)
+    assert sizes["full_floor"] == (43.0, 13.0)
+    w, h = sizes["open_plan"]
+    assert 70 <= w * h <= 90  # paper Fig 13: about 80 m^2
+
+
+def test_user_world_file_loads(tmp_path):
+    w = load_world(_write(tmp_path, GOOD))
+    assert w.name == "tiny" and w.odometry.bias_deg_s == 1.5 and len(w.obstacles) == 1
+
+
+@pytest.mark.parametrize("edit, field, problem", [
+    (("size = [6.0, 4.0]\n", ""), "size", "missing"),
+    (("speed = 0.3", "speed = 0.3\nwheels = 2"), "robot.wheels", "unknown key"),
+    (("segments = [[3.0, 2.5, 3.0, 4.0]]", "segments = [[3.0, 2.5, 3.0, 2.5]]"), "walls.segments[0]",
+     "zero-length wall"),
+    (("pose = [1.0, 1.0, 0.0]", "pose = [0.1, 1.0, 0.0]"), "start.pose", "overlaps a wall"),
+    (("pose = [1.0, 1.0, 0.0]", "pose = [4.25, 0.75, 0.0]"), "start.pose", "inside obstacle"),
+    (('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "B"], ["A", "C"], ["B", "C"]]'), "route.edges[2]",
+     "crosses a wall"),
+    (("speed = 0.3", "speed = -0.3"), "robot.speed", "must be positive"),
+    (("bias_deg_s = 1.5", 'bias_deg_s = "fast"'), "odometry.bias_deg_s", "must be a number"),
+    (('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "Z"]]'), "route.edges[0]", "unknown node"),
+    (("name = \"tiny\"", "name = \"tiny\"\n[[oops"), "toml", "not valid TOML"),
+])
+def test_malformed_world_fails_with_one_line(tmp_path, edit, field, problem):
+    old, new = edit
+    assert old in GOOD
+    path = _write(tmp_path, GOOD.replace(old, new))
+    with pytest.raises(WorldFileError) as e:
+        load_world(path)
+    msg = str(e.value)
+    assert "\n" not in msg
+    assert msg.startswith(str(path))
+    assert f": {field}: " in msg or (field == "toml" and ": toml: " in msg)
+    assert re.search(problem, msg)
+
+
+def test_unknown_world_name_lists_shipped_worlds():
+    with pytest.raises(WorldFileError, match="no such world file or shipped world.*small_loop"):
+        load_world("no_such_world")
+
+
+def test_missing_world_file(tmp_path):
+    with pytest.raises(WorldFileError, match="not found"):
+        load_world(tmp_path / "absent.toml")
