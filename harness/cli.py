@@ -17,6 +17,11 @@ class CliError(Exception):
 
 
 def _cmd_list(args) -> None:
+    from .figures import FIGURES
+
+    print("figures:")
+    for fig in FIGURES.values():
+        print(f"  {fig.name:<7} {fig.title} [{fig.world}, {fig.duration / 60:g} min]")
     print("worlds:")
     for name in list_worlds():
         w = load_world(name)
@@ -38,6 +43,45 @@ def _cmd_simulate(args) -> None:
     plot_run(world, log.ground_truth()[:, :2], png,
              title=f"{world.name}: {len(log)} ticks, seed {args.seed}", false_positive_xy=fps)
     print(f"wrote {out} ({len(log)} ticks, {log.t[-1]:.0f} s simulated) and {png}")
+
+
+def _cmd_run(args) -> None:
+    from .figure_run import run_figure
+    from .figures import get_figure
+    from .recording import recorder_factory
+
+    get_figure(args.figure)  # unknown names fail before anything starts
+    out = run_figure(args.figure, out=args.out, seed=args.seed, duration=args.duration,
+                     show_progress=not args.quiet, recorder_factory=None if args.no_recording else recorder_factory)
+    _print_run_summary(out)
+
+
+def _cmd_replay(args) -> None:
+    from .figure_run import replay
+    from .recording import recorder_factory
+
+    out = replay(args.log, args.out, show_progress=not args.quiet,
+                 recorder_factory=None if args.no_recording else recorder_factory)
+    _print_run_summary(out)
+
+
+def _cmd_report(args) -> None:
+    from .report import write_report
+
+    print(f"wrote {write_report(args.dir)}")
+
+
+def _print_run_summary(out: Path) -> None:
+    from .run_dir import read_json
+
+    m = read_json(out / "metrics.json")
+    for c in m.get("claims", []):
+        print(f"  [{'held' if c['held'] else 'NOT held'}] {c['statement']} -- {c['measured']}")
+    print(f"run directory: {out}")
+    print(f"  report:    {out / 'report.md'}")
+    rrd = out / "recording.rrd"
+    if rrd.exists():
+        print(f"  recording: {rrd}  (open it with: rerun {rrd})")
 
 
 def _check_writable(path: Path) -> None:
@@ -103,14 +147,44 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--fp", type=_rate, help="false-positive scene rate per tick (default: the world's)")
     s.add_argument("--quiet", action="store_true", help="no progress output")
     s.set_defaults(func=_cmd_simulate)
+
+    r = sub.add_parser("run", help="run a paper figure end to end (simulate, both systems, report)")
+    r.add_argument("figure", help="figure name (see `list`)")
+    r.add_argument("--out", help="run directory (default: reports/FIGURE)")
+    r.add_argument("--seed", type=int, help="random seed (default: the figure's)")
+    r.add_argument("--duration", type=_positive, help="simulated seconds (default: the figure's)")
+    r.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    r.add_argument("--quiet", action="store_true", help="no progress output")
+    r.set_defaults(func=_cmd_run)
+
+    rp = sub.add_parser("replay", help="replay an observation log (CSV) through both systems")
+    rp.add_argument("log", help="observation log: t,dt,v_trans,v_rot,scene_id[,gt_x,gt_y,gt_theta,false_positive]")
+    rp.add_argument("--out", required=True, help="run directory to write")
+    rp.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    rp.add_argument("--quiet", action="store_true", help="no progress output")
+    rp.set_defaults(func=_cmd_replay)
+
+    rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run directory")
+    rep.add_argument("dir", help="run directory")
+    rep.set_defaults(func=_cmd_report)
     return p
+
+
+def _harness_errors() -> tuple[type, ...]:
+    from .report import ReportError
+    from .run_dir import OutputError
+
+    return (ReportError, OutputError)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         args.func(args)
-    except (CliError, WorldFileError, ObservationLogError, ValueError) as e:
+    except KeyboardInterrupt:
+        print("ratslam-harness: interrupted; nothing was written", file=sys.stderr)
+        return 130
+    except (CliError, WorldFileError, ObservationLogError, ValueError, *_harness_errors()) as e:
         print(f"ratslam-harness: error: {e}", file=sys.stderr)
         return 2
     return 0

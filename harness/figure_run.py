@@ -1,0 +1,161 @@
+"""Run a paper figure (or replay a user's log) end to end into a run directory.
+
+simulate -> RatSLAM and GTSAM on the same observations -> recording, metrics, TUM files,
+maps.npz, report.md and PNG panels, all staged and moved into place when complete.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+
+from baselines import PoseGraphConfig
+from ratslam import RatSLAMConfig
+from worlds import ObservationLog, World, load_world, simulate
+
+from . import metrics as M
+from .evaluate import evaluate_stream, room_laps
+from .figures import Figure, Variant, get_figure
+from .progress import Progress
+from .report import write_report
+from .run_dir import provenance, staged_directory, write_json
+from .runner import StreamResult, run_stream
+
+REPORTS_DIR = Path("reports")
+ROOM_GH = (22.0, 7.5, 30.0, 13.0)  # full_floor's twice-lapped room (Fig 11, loops G and H)
+
+
+def lap_length(world: World, gt: np.ndarray) -> float | None:
+    """Mean lap length of a lap world's run: distance driven over laps around the tour's centre."""
+    if world.route_mode != "lap":
+        return None
+    centre = np.mean([world.nodes[n] for n in world.tour[:-1]], axis=0)
+    angle = np.unwrap(np.arctan2(gt[:, 1] - centre[1], gt[:, 0] - centre[0]))
+    laps = abs(angle[-1] - angle[0]) / (2 * math.pi)
+    dist = float(np.hypot(np.diff(gt[:, 0]), np.diff(gt[:, 1])).sum())
+    return dist / laps if laps >= 1 else None
+
+
+def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) -> None:
+    """TUM trajectories and maps.npz (everything the report's panels need) of one stream."""
+    traj = run_dir / "trajectories"
+    traj.mkdir(parents=True, exist_ok=True)
+    t = log.t
+    if log.has_ground_truth:
+        M.write_tum(traj / "ground_truth.tum", t, *log.ground_truth().T)
+    M.write_tum(traj / "odometry.tum", t, *res.odometry.T)
+    M.write_tum(traj / "ratslam.tum", t, *res.ratslam_pose.T)
+    M.write_tum(traj / "gtsam.tum", t, *res.gtsam_pose.T)
+    rs, pg = res.ratslam, res.gtsam
+    order = np.argsort(rs.experience_last_tick)
+    M.write_tum(traj / "ratslam_experiences.tum", t[rs.experience_last_tick[order]], *rs.experience_poses[order].T)
+    if len(pg.keyframe_ticks):
+        M.write_tum(traj / "gtsam_keyframes.tum", t[pg.keyframe_ticks], *pg.keyframe_poses.T)
+    maps = {
+        "grid_shape": np.array(rs.config.shape), "peak_cells": res.peak_cells, "snapped": res.snapped,
+        "experience_poses": rs.experience_poses, "experience_cells": rs.experience_cells,
+        "experience_last_tick": rs.experience_last_tick, "experience_first_tick": rs.experience_first_tick,
+        "links": rs.links, "keyframe_poses": pg.keyframe_poses, "keyframe_ticks": pg.keyframe_ticks,
+        "loop_closures": np.asarray(pg.loop_closures).reshape(-1, 2),
+        "closure_accepted": np.asarray(pg.closure_accepted, dtype=bool),
+    }
+    if log.has_ground_truth:
+        maps["false_positive"] = log.false_positive
+    with open(run_dir / "maps.npz", "wb") as f:
+        np.savez_compressed(f, **maps)
+
+
+def _configs(fig: Figure, variant: Variant) -> tuple[RatSLAMConfig, PoseGraphConfig]:
+    nx, ny, nth = fig.grid
+    return (RatSLAMConfig(nx=nx, ny=ny, n_theta=nth, pi_bias_deg_s=variant.pi_bias), PoseGraphConfig())
+
+
+def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, duration: float, seed: int,
+                 show_progress: bool, recorder_factory=None) -> dict:
+    log = simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
+    rs_cfg, pg_cfg = _configs(fig, variant)
+    progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress)
+    recorder = recorder_factory(run_dir, world, log, rs_cfg) if recorder_factory else None
+    res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
+    if recorder:
+        recorder.close()
+    write_stream_outputs(run_dir, log, res)
+    m = evaluate_stream(res, log)
+    m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg),
+                   "odometric_bias_deg_s": variant.odometric_bias, "pi_bias_deg_s": variant.pi_bias}
+    if fig.world == "full_floor":
+        m["rooms"] = room_laps(res, log, ROOM_GH, rs_cfg.cell_size_m, rs_cfg.shape)
+    m["_lap_length"] = lap_length(world, log.ground_truth())
+    return m
+
+
+def run_figure(name: str, out=None, seed: int | None = None, duration: float | None = None,
+               show_progress: bool = True, recorder_factory=None) -> Path:
+    """Run every variant of figure ``name`` into ``out`` (default ``reports/<name>``)."""
+    fig = get_figure(name)
+    world = load_world(fig.world)
+    seed = fig.seed if seed is None else int(seed)
+    duration = fig.duration if duration is None else float(duration)
+    out = Path(out) if out else REPORTS_DIR / fig.name
+    with staged_directory(out) as stage:
+        variants = {}
+        for i, variant in enumerate(fig.variants):
+            vdir = stage if i == 0 else stage / "variants" / variant.name
+            vdir.mkdir(parents=True, exist_ok=True)
+            variants[variant.name] = _run_variant(vdir, fig, variant, world, duration, seed, show_progress,
+                                                  recorder_factory)
+        primary = variants[fig.primary.name]
+        metrics = {
+            "figure": {"name": fig.name, "title": fig.title, "notes": fig.notes},
+            "world": {"name": world.name, "file": world.path, "lap_length_m": primary.pop("_lap_length")},
+            "duration_s": duration, "seed": seed, "fp_rate": fig.fp_rate,
+            "variant_labels": {v.name: v.label for v in fig.variants},
+            "variants": variants,
+        }
+        for v in variants.values():
+            v.pop("_lap_length", None)
+        if "rooms" in primary:
+            metrics["rooms"] = primary["rooms"]
+        metrics["claims"] = evaluate_claims(fig, metrics)
+        metrics["provenance"] = provenance(figure=fig.name, seed=seed, duration_s=duration)
+        write_json(stage / "metrics.json", metrics)
+        write_report(stage)
+    return out
+
+
+def evaluate_claims(fig: Figure, metrics: dict) -> list[dict]:
+    out = []
+    for c in fig.claims:
+        try:
+            measured, held = c.check(metrics)
+        except (KeyError, TypeError, ZeroDivisionError) as e:
+            measured, held = f"not measurable ({type(e).__name__}: {e})", False
+        out.append({"key": c.key, "statement": c.statement, "measured": measured, "held": bool(held)})
+    return out
+
+
+def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
+           ratslam_config: RatSLAMConfig | None = None, gtsam_config: PoseGraphConfig | None = None) -> Path:
+    """Replay a user's observation log through both systems into run directory ``out``."""
+    log = ObservationLog.read_csv(log_path)
+    rs_cfg, pg_cfg = ratslam_config or RatSLAMConfig(), gtsam_config or PoseGraphConfig()
+    out = Path(out)
+    with staged_directory(out) as stage:
+        progress = Progress(len(log), f"replay {Path(log_path).name}", float(np.median(log.dt)),
+                            enabled=show_progress)
+        recorder = recorder_factory(stage, None, log, rs_cfg) if recorder_factory else None
+        res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
+        if recorder:
+            recorder.close()
+        write_stream_outputs(stage, log, res)
+        m = evaluate_stream(res, log)
+        m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg)}
+        metrics = {"figure": None, "title": f"replay of {Path(log_path).name}", "log": str(log_path),
+                   "duration_s": float(log.t[-1]), "variants": {"replay": m},
+                   "provenance": provenance(log=str(log_path))}
+        write_json(stage / "metrics.json", metrics)
+        write_report(stage)
+    return out

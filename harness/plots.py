@@ -1,0 +1,104 @@
+"""PNG panels mirroring the paper's figures.
+
+(a) the world with the ground-truth and odometry paths; (b) the pose-cell peak path in cell
+coordinates on a 4 x 4-cell grid, wrap-arounds and snaps drawn as thin lines; (c) the
+experience map (experiences and transitions); (d) the GTSAM estimate. Estimates are drawn after
+SE(2) alignment to ground truth so that they can be read against the walls.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+
+from worlds import World  # noqa: E402
+from worlds.plot import draw_world, save_figure  # noqa: E402
+
+from . import metrics  # noqa: E402
+
+
+def aligned(est_xy: np.ndarray, ref_xy: np.ndarray, apply_to: np.ndarray | None = None) -> np.ndarray:
+    """``apply_to`` (default ``est_xy``) moved by the SE(2) alignment of ``est_xy`` onto ``ref_xy``."""
+    pts = est_xy if apply_to is None else apply_to
+    if len(est_xy) < 2:
+        return pts
+    R, t, _ = metrics.align_se2(est_xy, ref_xy)
+    return pts @ np.asarray(R).T + t
+
+
+def _world_axes(world: World, title: str, figsize=None):
+    w, h = world.size
+    fig, ax = plt.subplots(figsize=figsize or (min(12.0, 2.0 + w * 0.3), min(8.0, 1.6 + h * 0.3)))
+    draw_world(ax, world, route=False)
+    ax.set_title(title, fontsize=10)
+    return fig, ax
+
+
+def panel_world(world: World, gt: np.ndarray, odometry: np.ndarray, fp_xy: np.ndarray, path):
+    """(a) World, ground truth and (aligned) raw odometry."""
+    fig, ax = _world_axes(world, "(a) world, ground truth and odometry")
+    odo = aligned(odometry[:, :2], gt[:, :2])
+    ax.plot(odo[:, 0], odo[:, 1], color="tab:orange", lw=0.6, alpha=0.8, label="odometry (aligned)")
+    ax.plot(gt[:, 0], gt[:, 1], color="k", lw=0.6, alpha=0.6, label="ground truth")
+    if len(fp_xy):
+        ax.plot(fp_xy[:, 0], fp_xy[:, 1], "x", color="magenta", ms=4, label="false-positive scene")
+    ax.legend(loc="upper right", fontsize=7)
+    return save_figure(fig, path)
+
+
+def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, path):
+    """(b) Pose-cell peak path in (x', y') cells; jumps (snaps, wrap-arounds) as thin lines."""
+    nx, ny = grid_shape[:2]
+    fig, ax = plt.subplots(figsize=(6.0, 6.0 * ny / nx + 0.4))
+    p = peak_cells[:, :2]
+    seg = np.stack([p[:-1], p[1:]], axis=1)
+    step = p[1:] - p[:-1]
+    wrapped = (np.abs(step[:, 0]) > nx / 2) | (np.abs(step[:, 1]) > ny / 2)
+    jump = snapped[1:] | wrapped
+    ax.add_collection(LineCollection(seg[~jump], colors="tab:blue", linewidths=1.2))
+    ax.add_collection(LineCollection(seg[jump & ~wrapped], colors="tab:red", linewidths=0.4,
+                                     label=f"snaps ({int(snapped.sum())})"))
+    ax.set_xlim(0, nx)
+    ax.set_ylim(0, ny)
+    ax.set_xticks(np.arange(0, nx + 1, 4))
+    ax.set_yticks(np.arange(0, ny + 1, 4))
+    ax.tick_params(labelsize=6)
+    ax.grid(True, lw=0.3, color="0.8")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x' (cells)")
+    ax.set_ylabel("y' (cells)")
+    ax.set_title("(b) pose-cell peak path (4 x 4-cell grid)", fontsize=10)
+    ax.legend(loc="upper right", fontsize=7)
+    return save_figure(fig, path)
+
+
+def panel_experience_map(world: World, exp_xy: np.ndarray, exp_gt_xy: np.ndarray, links: np.ndarray, path):
+    """(c) Experience map: experiences (dots) and transitions (lines), aligned to ground truth."""
+    fig, ax = _world_axes(world, "(c) experience map (aligned to ground truth)")
+    xy = aligned(exp_xy, exp_gt_xy)
+    if len(links):
+        ax.add_collection(LineCollection(xy[links], colors="tab:green", linewidths=0.5, alpha=0.7))
+    ax.plot(xy[:, 0], xy[:, 1], ".", color="tab:green", ms=2.5, label=f"{len(xy)} experiences")
+    ax.legend(loc="upper right", fontsize=7)
+    return save_figure(fig, path)
+
+
+def panel_gtsam(world: World, kf_xy: np.ndarray, kf_gt_xy: np.ndarray, closures: np.ndarray,
+                accepted: np.ndarray, path):
+    """(d) GTSAM keyframes, accepted (green) and rejected (red) loop closures, aligned to ground truth."""
+    fig, ax = _world_axes(world, "(d) GTSAM pose graph (aligned to ground truth)")
+    xy = aligned(kf_xy, kf_gt_xy)
+    ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:purple", lw=0.6, label=f"{len(xy)} keyframes")
+    closures = np.asarray(closures, dtype=int).reshape(-1, 2)
+    if len(closures):
+        acc = np.asarray(accepted, dtype=bool)
+        ax.add_collection(LineCollection(xy[closures[acc]], colors="tab:green", linewidths=0.4,
+                                         label=f"accepted closures ({int(acc.sum())})"))
+        ax.add_collection(LineCollection(xy[closures[~acc]], colors="tab:red", linewidths=0.4,
+                                         label=f"rejected closures ({int((~acc).sum())})"))
+    ax.legend(loc="upper right", fontsize=7)
+    return save_figure(fig, path)
