@@ -1,0 +1,50 @@
+"""The gtsam optimisers used by the pose graph: iSAM2, batch LM and GNC."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import gtsam
+import numpy as np
+
+from .config import PoseGraphConfig
+
+
+def make_isam2(config: PoseGraphConfig) -> gtsam.ISAM2:
+    """iSAM2 with the configured relinearisation threshold and skip."""
+    params = gtsam.ISAM2Params()
+    params.setRelinearizeThreshold(config.isam2_relinearize_threshold)
+    params.relinearizeSkip = config.isam2_relinearize_skip
+    return gtsam.ISAM2(params)
+
+
+def _lm_params(config: PoseGraphConfig) -> gtsam.LevenbergMarquardtParams:
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(config.batch_max_iterations)
+    return params
+
+
+def batch_lm(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values, config: PoseGraphConfig) -> gtsam.Values:
+    """Batch Levenberg-Marquardt on the whole graph from ``initial``."""
+    return gtsam.LevenbergMarquardtOptimizer(graph, initial, _lm_params(config)).optimize()
+
+
+def run_gnc(
+    graph: gtsam.NonlinearFactorGraph,
+    initial: gtsam.Values,
+    known_inliers: Sequence[int],
+    config: PoseGraphConfig,
+) -> tuple[gtsam.Values, np.ndarray]:
+    """Graduated non-convexity (GncLMOptimizer) over ``graph``.
+
+    ``known_inliers`` are the factor indices GNC must keep (prior, odometry,
+    bias prior); every other factor is a loop closure whose weight GNC decides.
+    Returns the optimised values and one weight per factor of ``graph``.
+    """
+    params = gtsam.GncLMParams(_lm_params(config))
+    params.setLossType(gtsam.GncLossType.TLS if config.gnc_loss == "tls" else gtsam.GncLossType.GM)
+    params.setKnownInliers(list(known_inliers))
+    optimizer = gtsam.GncLMOptimizer(graph, initial, params)
+    optimizer.setInlierCostThresholdsAtProbability(config.gnc_inlier_probability)
+    result = optimizer.optimize()
+    return result, np.asarray(optimizer.getWeights(), dtype=float).ravel()

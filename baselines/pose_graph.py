@@ -1,0 +1,380 @@
+"""GTSAM Pose2 pose-graph SLAM fed the same stream as RatSLAM.
+
+Per tick: integrate the wheel odometry on SE(2); take a keyframe every
+``keyframe_distance`` metres, ``keyframe_angle`` radians or at a scene onset;
+join consecutive keyframes by an odometry between-factor; when a keyframe's scene
+number was seen at earlier keyframes, add a loop-closure factor to the nearest
+such sighting; optimise online with iSAM2 (robust, Gaussian or GNC-verified
+closures).  The SLAM never sees ground truth.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import B, X
+
+from .closures import SceneIndex
+from .config import PoseGraphConfig
+from .factors import (
+    BiasedOdometry,
+    biased_odometry_factor,
+    closure_gaussian,
+    closure_mahalanobis,
+    closure_noise,
+    odometry_noise,
+    robust_kernel,
+)
+from .odometry import TickBuffer, integrate, relative_covariance
+from .optimizers import batch_lm, make_isam2, run_gnc
+
+BIAS_KEY = B(0)
+
+
+class PoseGraphSLAM:
+    """Keyframe pose graph over odometry and scene-number loop closures.
+
+    Step contract: ``step(dt, v_trans, v_rot, scene_id)`` once per tick (seconds,
+    m/s, rad/s, int; -1 = no scene); ``pose`` is the current (x, y, theta) in the
+    map frame, whose origin is the pose reached after the first tick.
+    """
+
+    def __init__(self, config: PoseGraphConfig | None = None) -> None:
+        self._config = config if config is not None else PoseGraphConfig()
+        if not isinstance(self._config, PoseGraphConfig):
+            raise ValueError(f"config: expected a PoseGraphConfig, got {type(self._config).__name__}")
+        cfg = self._config
+        self._closure_noise = closure_noise(cfg)  # robust-wrapped for "robust" only
+        self._kernel = robust_kernel(cfg)
+        # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
+        self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
+        self._scenes = SceneIndex(cfg.closure_min_travel, cfg.closure_max_candidates,
+                                  cfg.closure_candidate_window)
+        self._isam = make_isam2(cfg) if cfg.online else None
+        self._graph = gtsam.NonlinearFactorGraph()  # every factor, for batch / GNC
+        self._values = gtsam.Values()  # initial guesses (the estimate when offline)
+        self._known_inliers: list[int] = []  # graph indices of non-closure factors
+        self._batch: gtsam.Values | None = None
+        self._buffer = TickBuffer()
+        self._tick = 0
+        self._time = 0.0
+        self._path = 0.0
+        self._prev_scene = -1
+        self._bias = 0.0
+        self._latest = gtsam.Pose2()
+        # keyframes
+        self._kf_ticks: list[int] = []
+        self._kf_times: list[float] = []
+        self._kf_path: list[float] = []
+        self._kf_scene: list[int] = []
+        # loop closures
+        self._lc_i: list[int] = []
+        self._lc_j: list[int] = []
+        self._lc_tick: list[int] = []
+        self._lc_graph_index: list[int] = []
+        self._lc_isam_index: list[int] = []  # index of the closure's factor in iSAM2, -1 if absent
+        self._lc_provisional: list[bool] = []  # GNC: iSAM2 holds the robust stand-in
+        self._lc_gnc_weight: list[float] = []
+        self._keyframes_since_gnc = 0
+
+    # ------------------------------------------------------------------ step
+    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
+        """Advance one tick: odometry (dt s, v_trans m/s, v_rot rad/s) and a scene number."""
+        dt, v, w = float(dt), float(v_trans), float(v_rot)
+        if not (math.isfinite(dt) and math.isfinite(v) and math.isfinite(w)):
+            raise ValueError(f"step: non-finite input dt={dt}, v_trans={v}, v_rot={w}")
+        if dt < 0.0:
+            raise ValueError(f"step: dt must be non-negative, got {dt}")
+        scene = _scene_number(scene_id)
+        self._batch = None
+        step_index = self._tick
+        self._tick += 1
+        self._time += dt
+        self._path += abs(v * dt)
+        self._buffer.add(dt, v, w, self._bias)
+        if not self._kf_ticks:
+            self._first_keyframe(step_index, scene)
+        else:
+            buf, cfg = self._buffer, self._config
+            onset = (cfg.keyframe_on_scene_change and scene != -1 and scene != self._prev_scene
+                     and buf.distance >= cfg.keyframe_min_distance)
+            if buf.distance >= cfg.keyframe_distance or abs(buf.theta) >= cfg.keyframe_angle or onset:
+                self._add_keyframe(step_index, scene)
+        self._prev_scene = scene
+
+    def _record_keyframe(self, step_index: int, scene: int) -> int:
+        j = len(self._kf_ticks)
+        self._kf_ticks.append(step_index)
+        self._kf_times.append(self._time)
+        self._kf_path.append(self._path)
+        self._kf_scene.append(scene)
+        return j
+
+    def _first_keyframe(self, step_index: int, scene: int) -> None:
+        cfg = self._config
+        buf = self._buffer
+        pose0 = gtsam.Pose2(buf.x, buf.y, buf.theta)
+        j = self._record_keyframe(step_index, scene)
+        factors = gtsam.NonlinearFactorGraph()
+        values = gtsam.Values()
+        sig = np.array([cfg.prior_sigma_xy, cfg.prior_sigma_xy, cfg.prior_sigma_theta])
+        factors.add(gtsam.PriorFactorPose2(X(j), pose0, gtsam.noiseModel.Diagonal.Sigmas(sig)))
+        values.insert(X(j), pose0)
+        if cfg.estimate_yaw_bias:
+            noise = gtsam.noiseModel.Isotropic.Sigma(1, cfg.yaw_bias_prior_sigma)
+            factors.add(gtsam.PriorFactorVector(BIAS_KEY, np.zeros(1), noise))
+            values.insert(BIAS_KEY, np.zeros(1))
+        for n in range(factors.size()):
+            self._known_inliers.append(self._graph.size())
+            self._graph.add(factors.at(n))
+        self._values.insert(values)
+        if self._isam is not None:
+            self._isam.update(factors, values)
+        self._latest = pose0
+        self._scenes.add(scene, j)
+        self._buffer = TickBuffer()
+
+    def _add_keyframe(self, step_index: int, scene: int) -> None:
+        cfg = self._config
+        dt, v, w = self._buffer.arrays()
+        cov = relative_covariance(dt, v, w, cfg.odom_sigma_v, cfg.odom_sigma_w,
+                                  cfg.odom_sigma_lateral, self._bias)
+        prev = len(self._kf_ticks) - 1
+        j = self._record_keyframe(step_index, scene)
+        if cfg.estimate_yaw_bias:
+            odo = BiasedOdometry(dt, v, w)
+            z = odo.measured(self._bias)
+            odo_factor = biased_odometry_factor(X(prev), X(j), BIAS_KEY, odo, odometry_noise(cov))
+        else:
+            z = gtsam.Pose2(*integrate(dt, v, w))
+            odo_factor = gtsam.BetweenFactorPose2(X(prev), X(j), z, odometry_noise(cov))
+        guess = self._latest.compose(z)
+        new_factors = gtsam.NonlinearFactorGraph()
+        new_values = gtsam.Values()
+        new_factors.add(odo_factor)
+        new_values.insert(X(j), guess)
+        self._known_inliers.append(self._graph.size())
+        self._graph.add(odo_factor)
+        self._values.insert(X(j), guess)
+
+        closures = self._scenes.candidates(scene, self._kf_path, self._path,
+                                           (guess.x(), guess.y()), self._estimate_xy)
+        self._scenes.add(scene, j)
+        closure_factors = []
+        for i in closures:
+            factor = gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(), self._closure_noise)
+            self._lc_i.append(i)
+            self._lc_j.append(j)
+            self._lc_tick.append(step_index)
+            self._lc_graph_index.append(self._graph.size())
+            self._lc_isam_index.append(-1)
+            self._lc_provisional.append(False)
+            self._lc_gnc_weight.append(math.nan)
+            self._graph.add(factor)
+            closure_factors.append((len(self._lc_i) - 1, factor))
+        self._buffer = TickBuffer()
+
+        if self._isam is None:
+            self._latest = guess
+            return
+        for c, factor in closure_factors:
+            if cfg.backend == "gnc":
+                factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(j), gtsam.Pose2(), self._pending_noise)
+                self._lc_provisional[c] = True
+            new_factors.add(factor)
+        result = self._isam.update(new_factors, new_values)
+        indices = result.getNewFactorsIndices()
+        for n, (c, _) in enumerate(closure_factors):
+            self._lc_isam_index[c] = indices[1 + n]
+        if closure_factors:
+            for _ in range(cfg.isam2_extra_updates):
+                self._isam.update()
+        if cfg.backend == "gnc":
+            self._keyframes_since_gnc += 1
+            if self._keyframes_since_gnc >= cfg.gnc_interval and self._has_pending():
+                self._gnc_verify()
+        self._refresh_latest()
+
+    def _refresh_latest(self) -> None:
+        j = len(self._kf_ticks) - 1
+        self._latest = self._isam.calculateEstimatePose2(X(j))
+        if self._config.estimate_yaw_bias:
+            self._bias = float(self._isam.calculateEstimateVector(BIAS_KEY)[0])
+
+    def _estimate_xy(self, i: int) -> tuple[float, float]:
+        p = self._isam.calculateEstimatePose2(X(i)) if self._isam is not None else self._values.atPose2(X(i))
+        return p.x(), p.y()
+
+    # ------------------------------------------------------------------ GNC
+    def _has_pending(self) -> bool:
+        return any(math.isnan(wt) for wt in self._lc_gnc_weight)
+
+    def _current_values(self) -> gtsam.Values:
+        if self._batch is not None:
+            return self._batch
+        if self._isam is not None:
+            return self._isam.calculateEstimate()
+        return self._values
+
+    def _run_gnc(self, initial: gtsam.Values) -> gtsam.Values:
+        """GNC inlier selection; stores the closure weights, returns GNC's pose estimate."""
+        result, weights = run_gnc(self._graph, initial, self._known_inliers, self._config)
+        for c, g in enumerate(self._lc_graph_index):
+            self._lc_gnc_weight[c] = float(weights[g])
+        return result
+
+    def _gnc_verify(self) -> None:
+        """Run GNC on the whole graph; iSAM2 keeps exactly the closures it accepts."""
+        self._keyframes_since_gnc = 0
+        self._run_gnc(self._current_values())
+        add = gtsam.NonlinearFactorGraph()
+        added: list[int] = []
+        remove: list[int] = []
+        for c, g in enumerate(self._lc_graph_index):
+            inlier = self._lc_gnc_weight[c] >= self._config.accept_weight
+            present = self._lc_isam_index[c] >= 0
+            if present and (not inlier or self._lc_provisional[c]):
+                remove.append(self._lc_isam_index[c])
+                self._lc_isam_index[c] = -1
+                self._lc_provisional[c] = False
+            if inlier and self._lc_isam_index[c] < 0:
+                add.add(self._graph.at(g))
+                added.append(c)
+        if added or remove:
+            result = self._isam.update(add, gtsam.Values(), remove)
+            for c, idx in zip(added, result.getNewFactorsIndices()):
+                self._lc_isam_index[c] = idx
+            for _ in range(self._config.isam2_extra_updates):
+                self._isam.update()
+
+    # ------------------------------------------------------------------ finalize
+    def finalize(self) -> None:
+        """End-of-run optimisation.
+
+        With ``final_batch`` the whole graph is optimised by batch
+        Levenberg-Marquardt ("gaussian", "robust") or GNC ("gnc") from the
+        current estimate, and the read-access properties report that result
+        until the next ``step``.  Without it, the online "gnc" back-end still
+        verifies its pending closures; other back-ends do nothing.
+        """
+        cfg = self._config
+        if not self._kf_ticks:
+            return
+        if cfg.final_batch:
+            initial = self._current_values()
+            if cfg.backend == "gnc":
+                values = self._run_gnc(initial)
+            else:
+                values = batch_lm(self._graph, initial, cfg)
+            self._batch = values
+            j = len(self._kf_ticks) - 1
+            self._latest = values.atPose2(X(j))
+            if cfg.estimate_yaw_bias:
+                self._bias = float(values.atVector(BIAS_KEY)[0])
+        elif cfg.backend == "gnc" and self._isam is not None and self._has_pending():
+            self._gnc_verify()
+            self._refresh_latest()
+
+    # ------------------------------------------------------------------ read access
+    @property
+    def config(self) -> PoseGraphConfig:
+        """The configuration (a frozen dataclass)."""
+        return self._config
+
+    @property
+    def tick(self) -> int:
+        """Number of steps taken so far (the first step makes it 1)."""
+        return self._tick
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """Current (x, y, theta): latest keyframe estimate composed with odometry since."""
+        if not self._kf_ticks:
+            return (0.0, 0.0, 0.0)
+        buf = self._buffer
+        p = self._latest.compose(gtsam.Pose2(buf.x, buf.y, buf.theta))
+        return (p.x(), p.y(), p.theta())
+
+    @property
+    def yaw_bias(self) -> float:
+        """Current yaw-rate bias estimate (rad/s); 0 unless ``estimate_yaw_bias``."""
+        return self._bias
+
+    @property
+    def keyframe_poses(self) -> np.ndarray:
+        """(K, 3) current optimised (x, y, theta) of every keyframe."""
+        if not self._kf_ticks:
+            return np.zeros((0, 3))
+        return np.asarray(gtsam.utilities.extractPose2(self._current_values()), dtype=float).reshape(-1, 3)
+
+    @property
+    def keyframe_ticks(self) -> np.ndarray:
+        """(K,) step index at which each keyframe was taken."""
+        return np.asarray(self._kf_ticks, dtype=int)
+
+    @property
+    def keyframe_times(self) -> np.ndarray:
+        """(K,) elapsed time (s, sum of dt up to and including that step) of each keyframe."""
+        return np.asarray(self._kf_times, dtype=float)
+
+    @property
+    def keyframe_scenes(self) -> np.ndarray:
+        """(K,) scene number each keyframe saw (-1 = none)."""
+        return np.asarray(self._kf_scene, dtype=int)
+
+    @property
+    def loop_closures(self) -> np.ndarray:
+        """(L, 2) keyframe indices (i earlier, j later) of every proposed closure."""
+        return np.asarray(list(zip(self._lc_i, self._lc_j)), dtype=int).reshape(-1, 2)
+
+    @property
+    def closure_ticks(self) -> np.ndarray:
+        """(L,) step index at which each closure was proposed."""
+        return np.asarray(self._lc_tick, dtype=int)
+
+    @property
+    def closure_weights(self) -> np.ndarray:
+        """(L,) weight of each closure at the current solution.
+
+        gaussian: 1.0; robust: the kernel weight w(d) at the closure's
+        Mahalanobis residual d; gnc: the weight of the latest GNC run, or — for
+        closures proposed since and held provisionally with the robust kernel —
+        that kernel's weight w(d).
+        """
+        n = len(self._lc_i)
+        if n == 0:
+            return np.zeros(0)
+        if self._config.backend == "gaussian":
+            return np.ones(n)
+        weights = np.asarray(self._lc_gnc_weight, dtype=float)
+        unjudged = np.isnan(weights) if self._config.backend == "gnc" else np.ones(n, dtype=bool)
+        if unjudged.any():
+            poses = self.keyframe_poses
+            i = np.asarray(self._lc_i)[unjudged]
+            j = np.asarray(self._lc_j)[unjudged]
+            d = closure_mahalanobis(self._config, poses[i], poses[j])
+            weights[unjudged] = [self._kernel.weight(float(x)) for x in d]
+        return weights
+
+    @property
+    def closure_accepted(self) -> np.ndarray:
+        """(L,) inlier flag: weight >= ``config.accept_weight``."""
+        return self.closure_weights >= self._config.accept_weight
+
+    @property
+    def num_keyframes(self) -> int:
+        """Number of keyframes so far."""
+        return len(self._kf_ticks)
+
+
+def _scene_number(scene_id) -> int:
+    if isinstance(scene_id, (bool, np.bool_)):
+        raise ValueError(f"step: scene_id must be an integer, got {scene_id!r}")
+    if isinstance(scene_id, numbers.Integral):
+        return int(scene_id)
+    if isinstance(scene_id, numbers.Real) and float(scene_id).is_integer():
+        return int(scene_id)
+    raise ValueError(f"step: scene_id must be an integer, got {scene_id!r}")
