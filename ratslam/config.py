@@ -1,0 +1,149 @@
+"""Configuration of the RatSLAM pipeline: one dataclass with documented defaults.
+
+Units: pose-cell quantities are in cell units (x', y' cells of ``cell_size_m``, θ' cells of
+``360 / n_theta`` degrees); map quantities are in metres and radians; rates per second.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+_CORRECTIONS = ("stable", "printed")
+_ENERGIES = ("sum", "product")
+
+
+@dataclass(frozen=True)
+class RatSLAMConfig:
+    """All RatSLAM parameters, with the defaults used for the paper's figures.
+
+    Pose cells (competitive attractor network, wrapping on every axis):
+      nx, ny, n_theta: grid size. 60 x 60 cells of 0.25 m wrap every 15 m, so on the large office
+        floors one pose-cell region serves several places (the paper's Fig 4 "hash collision").
+        36 heading cells of 10 degrees.
+      cell_size_m: side of an (x', y') cell, 0.25 m (the paper's indoor value).
+      excite_sigma, excite_radius: Gaussian local excitation, width in cells and truncation
+        radius; the weights sum to 1 so excitation conserves activity.
+      inhibit_sigma, inhibit_radius, inhibit_weight: wider Gaussian local inhibition; after
+        excitation the network subtracts ``inhibit_weight`` times the inhibition-blurred activity.
+      global_inhibition: constant subtracted from every cell afterwards (then clipped at zero);
+        this is what removes weak, unsupported activity such as one tick of a false view.
+      Activity is then normalised to total 1.
+      peak_radius: half-width (cells) of the neighbourhood whose wrap-aware weighted circular
+        mean refines the strongest cell into the peak.
+      pi_bias_deg_s: constant added to the rotational velocity used by the pose cells' path
+        integration only (experience transitions keep the wheel odometry). This is the paper's
+        Figs 8-10 manipulation (reading (a) in DESIGN.md); 0 = off.
+      snap_cells: a tick whose peak moves further than this (wrap-aware Euclidean distance in
+        cell units) is reported as a snap.
+
+    Local view cells (one per scene number; -1 = nothing recognisable, no view cell):
+      view_learn_rate: Hebbian rate λ, association β <- max(β, λ · V · P) with the active cells.
+      view_inject: injection strength δ; a familiar view adds δ · V · β to the pose cells.
+      view_learn_threshold: pose cells weaker than this fraction of the packet maximum are not
+        associated (keeps associations sparse).
+      view_fatigue_rate, view_fatigue_recovery: habituation of a view cell. Its activity is
+        V = max(1 - fatigue, 0); fatigue grows by the rate on each consecutive tick the scene stays
+        in view and recovers by the recovery value on every other tick. A scene seen for a while
+        therefore injects (and learns) only around its onset and cannot pin the packet.
+      view_min_age_ticks: associations younger than this many ticks never inject, so a view does
+        not pull the packet back to where it was learnt moments ago.
+
+    Experience map (paper eqs 2-14):
+      r_inf: zone of influence radius in (x', y') cells (eqs 2-3).
+      theta_inf: zone of influence in θ' cells (eqs 4-5).
+      energy: "sum" = paper eq 9, E = E_V (E_xy + E_θ): a view can match on heading alone, so an
+        aliased or false-positive scene can switch to an experience metres away.
+        "product" = E_V E_xy E_θ: the stricter form, the view must agree on place and heading.
+      alpha_theta, alpha_d: correction rates of eqs 12-14 (paper Table 1: 0.5).
+      correction: "stable" = α times the mean residual over the experience's links (converges);
+        "printed" = α times the sum of residuals exactly as printed; it overshoots at experiences
+        with more than two links and diverges (kept for the record, not for use).
+      correction_iterations: correction passes per tick (the paper runs one per tick).
+    """
+
+    # pose cells
+    nx: int = 60
+    ny: int = 60
+    n_theta: int = 36
+    cell_size_m: float = 0.25
+    excite_sigma: float = 1.0
+    excite_sigma_theta: float = 0.6
+    excite_radius: int = 2
+    inhibit_sigma: float = 2.0
+    inhibit_sigma_theta: float = 1.0
+    inhibit_radius: int = 3
+    inhibit_weight: float = 0.5
+    global_inhibition: float = 3e-5
+    peak_radius: int = 3
+    pc_trans_gain: float = 1.05
+    pi_bias_deg_s: float = 0.0
+    snap_cells: float = 3.0
+    # local view cells
+    view_learn_rate: float = 1.0
+    view_inject: float = 0.1
+    view_learn_threshold: float = 0.1
+    view_fatigue_rate: float = 0.1
+    view_fatigue_recovery: float = 0.05
+    view_min_age_ticks: int = 70
+    # experience map
+    r_inf: float = 2.0
+    theta_inf: float = 2.0
+    energy: str = "product"
+    alpha_theta: float = 0.5
+    alpha_d: float = 0.5
+    correction: str = "stable"
+    correction_iterations: int = 1
+
+    def __post_init__(self) -> None:
+        for name in ("nx", "ny", "n_theta"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 4:
+                raise ValueError(f"{name} must be an integer >= 4, got {getattr(self, name)!r}")
+        for name in ("excite_radius", "inhibit_radius", "peak_radius"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 0:
+                raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+        if 2 * max(self.excite_radius, self.inhibit_radius, self.peak_radius) + 1 > min(
+            self.nx, self.ny, self.n_theta
+        ):
+            raise ValueError("excite_radius/inhibit_radius/peak_radius: kernel wider than the grid")
+        for name in ("cell_size_m", "pc_trans_gain", "excite_sigma", "excite_sigma_theta", "inhibit_sigma", "inhibit_sigma_theta", "r_inf", "theta_inf",
+                     "snap_cells", "view_learn_rate", "view_fatigue_rate"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+        for name in ("inhibit_weight", "global_inhibition", "view_inject", "view_fatigue_recovery"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
+        if not 0 <= self.view_learn_threshold < 1:
+            raise ValueError(f"view_learn_threshold must be in [0, 1), got {self.view_learn_threshold!r}")
+        if not isinstance(self.view_min_age_ticks, int) or self.view_min_age_ticks < 1:
+            raise ValueError(f"view_min_age_ticks must be an integer >= 1, got {self.view_min_age_ticks!r}")
+        if not (isinstance(self.pi_bias_deg_s, (int, float)) and math.isfinite(self.pi_bias_deg_s)):
+            raise ValueError(f"pi_bias_deg_s must be a finite number, got {self.pi_bias_deg_s!r}")
+        for name in ("alpha_theta", "alpha_d"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 <= value <= 1):
+                raise ValueError(f"{name} must be in [0, 1], got {value!r}")
+        if not isinstance(self.correction_iterations, int) or self.correction_iterations < 0:
+            raise ValueError(f"correction_iterations must be a non-negative integer, got {self.correction_iterations!r}")
+        if self.correction not in _CORRECTIONS:
+            raise ValueError(f"correction must be one of {_CORRECTIONS}, got {self.correction!r}")
+        if self.energy not in _ENERGIES:
+            raise ValueError(f"energy must be one of {_ENERGIES}, got {self.energy!r}")
+
+    @property
+    def theta_cell_rad(self) -> float:
+        """Size of one heading cell in radians."""
+        return 2.0 * math.pi / self.n_theta
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Pose-cell grid shape (nx, ny, n_theta)."""
+        return (self.nx, self.ny, self.n_theta)
+
+    def replace(self, **changes) -> "RatSLAMConfig":
+        """A copy with some fields changed (validated)."""
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,143 @@
+"""Local view cells: one cell per scene number, Hebbian links to the pose cells.
+
+* Scene ``-1`` means nothing recognisable: no view cell is active, nothing is learnt or injected.
+* A view cell's activity is ``V = max(1 - fatigue, 0)``. Fatigue grows by
+  ``view_fatigue_rate`` on every tick the scene is in view and recovers by
+  ``view_fatigue_recovery`` on every tick it is not (capped at :data:`FATIGUE_CAP`). A scene that
+  stays in view for a while therefore acts mostly at its onset; it cannot pin the packet.
+* Learning (Hebbian, max form): ``β_v(c) <- max(β_v(c), λ · V · P(c))`` for the active pose cells
+  ``c`` with ``P(c) >= view_learn_threshold · max P``.
+* Injection: a familiar view adds ``δ · V · β_v(c)`` to pose cell ``c``, using only associations
+  learnt at least ``view_min_age_ticks`` ago (a recently learnt view never drags the packet back
+  to where it was just learnt).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .config import RatSLAMConfig
+from .pose_cells import PoseCells
+
+FATIGUE_CAP = 2.0
+"""Fatigue never exceeds this, so a view recovers within ``FATIGUE_CAP / view_fatigue_recovery``
+ticks however long its scene was in view."""
+
+
+class LocalView:
+    """The local view cells and their associations with the pose cells."""
+
+    def __init__(self, config: RatSLAMConfig):
+        self.config = config
+        self._scene_to_cell: dict[int, int] = {}
+        self.scenes = np.zeros(0, dtype=np.int64)       # scene number of each view cell
+        self.fatigue = np.zeros(0)                     # per view cell
+        # associations, one sorted-by-linear-index entry set per view cell
+        self._assoc_lin: list[np.ndarray] = []
+        self._assoc_w: list[np.ndarray] = []
+        self._assoc_tick: list[np.ndarray] = []
+        self.current = -1                              # active view cell (-1: none)
+        self.activity = 0.0                            # V of the active view cell
+        self.injected = 0.0                            # total energy injected this tick
+        n = config.shape
+        self._strides = np.array([n[1] * n[2], n[2], 1], dtype=np.int64)
+
+    def __len__(self) -> int:
+        return int(self.scenes.size)
+
+    def cell_of(self, scene_id: int) -> int:
+        """View cell of a scene number, or -1 if the scene was never seen (or is -1)."""
+        return self._scene_to_cell.get(int(scene_id), -1)
+
+    def _new_cell(self, scene_id: int) -> int:
+        v = len(self.scenes)
+        self._scene_to_cell[int(scene_id)] = v
+        self.scenes = np.append(self.scenes, np.int64(scene_id))
+        self.fatigue = np.append(self.fatigue, 0.0)
+        self._assoc_lin.append(np.zeros(0, dtype=np.int64))
+        self._assoc_w.append(np.zeros(0))
+        self._assoc_tick.append(np.zeros(0, dtype=np.int64))
+        return v
+
+    def inject(self, scene_id: int, tick: int, pose_cells: PoseCells) -> int:
+        """Activate the view cell of ``scene_id`` (creating it if new) and, if it is familiar,
+        inject energy into the pose cells. Returns the active view cell (-1 for scene -1)."""
+        cfg = self.config
+        self.injected = 0.0
+        if scene_id < 0:
+            self.current, self.activity = -1, 0.0
+            return -1
+        v = self.cell_of(scene_id)
+        if v < 0:
+            v = self._new_cell(scene_id)
+        self.current = v
+        self.activity = max(1.0 - float(self.fatigue[v]), 0.0)
+        if self.activity > 0.0 and cfg.view_inject > 0.0 and self._assoc_lin[v].size:
+            old = self._assoc_tick[v] <= tick - cfg.view_min_age_ticks
+            if np.any(old):
+                lin = self._assoc_lin[v][old]
+                energy = (cfg.view_inject * self.activity) * self._assoc_w[v][old]
+                cells = np.stack((lin // self._strides[0], (lin // self._strides[1]) % self.config.ny,
+                                  lin % self.config.n_theta), axis=1)
+                pose_cells.inject(cells, energy)
+                self.injected = float(energy.sum())
+        return v
+
+    def learn(self, tick: int, pose_cells: PoseCells) -> None:
+        """Hebbian learning between the active view cell and the active pose cells, then
+        fatigue/recovery bookkeeping for every view cell. Call once per tick after the pose
+        cells have been updated."""
+        cfg = self.config
+        v = self.current
+        if v >= 0 and self.activity > 0.0:
+            cells, p = pose_cells.active_cells()
+            keep = p >= cfg.view_learn_threshold * p.max()
+            cells, p = cells[keep], p[keep]
+            lin = cells @ self._strides
+            w = (cfg.view_learn_rate * self.activity) * p
+            all_lin = np.concatenate((self._assoc_lin[v], lin))
+            all_w = np.concatenate((self._assoc_w[v], w))
+            all_t = np.concatenate((self._assoc_tick[v], np.full(lin.size, tick, dtype=np.int64)))
+            order = np.lexsort((-all_w, all_lin))      # by cell, strongest first (old wins ties)
+            all_lin, all_w, all_t = all_lin[order], all_w[order], all_t[order]
+            first = np.ones(all_lin.size, dtype=bool)
+            first[1:] = all_lin[1:] != all_lin[:-1]
+            self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v] = all_lin[first], all_w[first], all_t[first]
+        if self.fatigue.size:
+            active_fatigue = float(self.fatigue[v]) if v >= 0 else 0.0
+            self.fatigue -= cfg.view_fatigue_recovery
+            np.maximum(self.fatigue, 0.0, out=self.fatigue)
+            if v >= 0:
+                self.fatigue[v] = min(active_fatigue + cfg.view_fatigue_rate, FATIGUE_CAP)
+
+    def associations(self, view_cell: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Associations of one view cell: cells (k, 3) as (x', y', θ'), weights (k,), learnt ticks (k,)."""
+        lin = self._assoc_lin[view_cell]
+        cells = np.stack((lin // self._strides[0], (lin // self._strides[1]) % self.config.ny,
+                          lin % self.config.n_theta), axis=1)
+        return cells, self._assoc_w[view_cell].copy(), self._assoc_tick[view_cell].copy()
+
+    # ------------------------------------------------------------------ state i/o
+    def get_state(self) -> dict:
+        """Arrays that fully describe the view cells (for save/load)."""
+        counts = np.array([a.size for a in self._assoc_lin], dtype=np.int64)
+        cat = (lambda parts, dt: np.concatenate(parts) if parts else np.zeros(0, dtype=dt))
+        return {
+            "lv_scenes": self.scenes.copy(), "lv_fatigue": self.fatigue.copy(),
+            "lv_counts": counts, "lv_lin": cat(self._assoc_lin, np.int64),
+            "lv_w": cat(self._assoc_w, float), "lv_tick": cat(self._assoc_tick, np.int64),
+            "lv_current": np.array([self.current], dtype=np.int64),
+            "lv_activity": np.array([self.activity, self.injected]),
+        }
+
+    def set_state(self, s: dict) -> None:
+        """Restore a state produced by :meth:`get_state`."""
+        self.scenes = np.asarray(s["lv_scenes"], dtype=np.int64).copy()
+        self.fatigue = np.asarray(s["lv_fatigue"], dtype=float).copy()
+        self._scene_to_cell = {int(sc): i for i, sc in enumerate(self.scenes)}
+        bounds = np.concatenate(([0], np.cumsum(s["lv_counts"])))
+        self._assoc_lin = [np.asarray(s["lv_lin"][a:b], dtype=np.int64).copy() for a, b in zip(bounds[:-1], bounds[1:])]
+        self._assoc_w = [np.asarray(s["lv_w"][a:b], dtype=float).copy() for a, b in zip(bounds[:-1], bounds[1:])]
+        self._assoc_tick = [np.asarray(s["lv_tick"][a:b], dtype=np.int64).copy() for a, b in zip(bounds[:-1], bounds[1:])]
+        self.current = int(s["lv_current"][0])
+        self.activity, self.injected = (float(x) for x in s["lv_activity"])

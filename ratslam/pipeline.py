@@ -1,0 +1,185 @@
+"""The RatSLAM pipeline: local view cells -> pose cells -> experience map, one call per tick."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .config import RatSLAMConfig
+from .experience_map import ExperienceMap
+from .local_view import LocalView
+from .pose_cells import PoseCells
+
+_FORMAT = "ratslam-state-1"
+
+
+class RatSLAM:
+    """RatSLAM with experience mapping (Milford, Prasser & Wyeth, ACRA 2005).
+
+    Each :meth:`step` does, in order: the scene's view cell injects energy into the pose cells
+    if it is familiar; the pose cells iterate and path-integrate the odometry (plus the optional
+    path-integration bias); the view cell learns its association with the active pose cells; the
+    experience map integrates the wheel odometry, selects/creates the current experience
+    (eqs 2-11) and runs its correction (eqs 12-14).
+
+    The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
+    """
+
+    def __init__(self, config: RatSLAMConfig | None = None):
+        self._config = config if config is not None else RatSLAMConfig()
+        self.pose_cells = PoseCells(self._config)
+        self.local_view = LocalView(self._config)
+        self.experience_map = ExperienceMap(self._config)
+        self._tick = 0
+        self._snapped = False
+        self._bias = math.radians(self._config.pi_bias_deg_s)
+        self._grid = np.array(self._config.shape, dtype=float)
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
+        """Advance one tick: ``dt`` seconds, ``v_trans`` m/s, ``v_rot`` rad/s, ``scene_id``
+        (int, -1 = nothing recognisable)."""
+        k = self._tick  # step index of this tick
+        scene_id = int(scene_id)
+        pc = self.pose_cells
+        old_peak = pc.peak
+        self.local_view.inject(scene_id, k, pc)
+        pc.step(v_trans * dt, (v_rot + self._bias) * dt)
+        self.local_view.learn(k, pc)
+        new_peak = pc.peak
+        d = np.abs(new_peak - old_peak)
+        d = np.minimum(d, self._grid - d)                     # wrap-aware jump in cells
+        self._snapped = bool(math.sqrt(float(d @ d)) > self._config.snap_cells)
+        em = self.experience_map
+        em.integrate(dt, v_trans, v_rot)
+        em.update(k, new_peak, scene_id)
+        for _ in range(self._config.correction_iterations):
+            em.correct()
+        self._tick += 1
+
+    # ------------------------------------------------------------------ read access
+    @property
+    def config(self) -> RatSLAMConfig:
+        """The configuration (a frozen dataclass; ``dataclasses.asdict`` gives provenance)."""
+        return self._config
+
+    @property
+    def tick(self) -> int:
+        """Number of steps taken (the step index of the latest step is ``tick - 1``)."""
+        return self._tick
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """(x, y, θ) in the experience-map frame: the current experience's map pose composed
+        with the odometry integrated since it was entered."""
+        return self.experience_map.pose
+
+    @property
+    def pose_cell_activity(self) -> np.ndarray:
+        """Pose-cell activity, shape (nx, ny, n_theta), read-only."""
+        return self.pose_cells.activity
+
+    @property
+    def peak(self) -> np.ndarray:
+        """Activity peak (x', y', θ') in cell units, wrapped into [0, n)."""
+        return self.pose_cells.peak
+
+    @property
+    def peak_metres(self) -> np.ndarray:
+        """Peak as (x m, y m, θ rad): cell coordinates times the cell sizes."""
+        p = self.pose_cells.peak
+        c = self._config
+        return np.array([p[0] * c.cell_size_m, p[1] * c.cell_size_m, p[2] * c.theta_cell_rad])
+
+    @property
+    def snapped(self) -> bool:
+        """Whether this tick's peak jumped by more than ``config.snap_cells`` cells (wrap-aware)."""
+        return self._snapped
+
+    @property
+    def experience_poses(self) -> np.ndarray:
+        """Map poses (N, 3) of the experiences: x m, y m, θ rad."""
+        return self.experience_map.poses.copy()
+
+    @property
+    def experience_cells(self) -> np.ndarray:
+        """Pose-cell coordinates (N, 3) of the experiences."""
+        return self.experience_map.cells.copy()
+
+    @property
+    def experience_views(self) -> np.ndarray:
+        """Scene number (view) of each experience, (N,)."""
+        return self.experience_map.views.copy()
+
+    @property
+    def experience_first_tick(self) -> np.ndarray:
+        """Step index at which each experience was created, (N,)."""
+        return self.experience_map.first_tick.copy()
+
+    @property
+    def experience_last_tick(self) -> np.ndarray:
+        """Step index at which each experience last became the current one (entered), (N,)."""
+        return self.experience_map.last_tick.copy()
+
+    @property
+    def links(self) -> np.ndarray:
+        """Transitions (M, 2) as (from, to) experience indices."""
+        return self.experience_map.links
+
+    @property
+    def link_d(self) -> np.ndarray:
+        """Distance d_ij of each transition (m)."""
+        return self.experience_map.link_column("d").copy()
+
+    @property
+    def link_theta(self) -> np.ndarray:
+        """Bearing θ_ij of j relative to i's heading (rad)."""
+        return self.experience_map.link_column("theta").copy()
+
+    @property
+    def link_phi(self) -> np.ndarray:
+        """Heading change φ_ij (rad)."""
+        return self.experience_map.link_column("phi").copy()
+
+    @property
+    def link_dt(self) -> np.ndarray:
+        """Elapsed time of each transition (s)."""
+        return self.experience_map.link_column("dt").copy()
+
+    @property
+    def current_experience(self) -> int:
+        """Index of the current experience (-1 before the first)."""
+        return self.experience_map.current
+
+    # ------------------------------------------------------------------ persistence
+    def save(self, path) -> None:
+        """Write the whole state (config, pose cells, view cells, map) to one ``.npz`` file."""
+        arrays = {}
+        arrays.update(self.pose_cells.get_state())
+        arrays.update(self.local_view.get_state())
+        arrays.update(self.experience_map.get_state())
+        arrays["rs_tick"] = np.array([self._tick, int(self._snapped)], dtype=np.int64)
+        meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
+        arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+        with open(Path(path), "wb") as fh:
+            np.savez(fh, **arrays)
+
+    @classmethod
+    def load(cls, path) -> "RatSLAM":
+        """Restore a system written by :meth:`save`; stepping it continues bit-identically."""
+        with np.load(Path(path)) as data:
+            s = {k: data[k] for k in data.files}
+        meta = json.loads(bytes(s["meta_json"]).decode())
+        if meta.get("format") != _FORMAT:
+            raise ValueError(f"{path}: not a RatSLAM state file (format {meta.get('format')!r})")
+        obj = cls(RatSLAMConfig(**meta["config"]))
+        obj.pose_cells.set_state(s)
+        obj.local_view.set_state(s)
+        obj.experience_map.set_state(s)
+        obj._tick, snapped = (int(v) for v in s["rs_tick"])
+        obj._snapped = bool(snapped)
+        return obj

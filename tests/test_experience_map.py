@@ -1,0 +1,232 @@
+"""Experience map: eqs 2-14, experience creation/switching, transitions, correction variants."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ratslam import RatSLAMConfig
+from ratslam.experience_map import ExperienceMap, wrap_angle
+
+CFG = RatSLAMConfig()
+
+
+def make_map(cfg=CFG, poses=(), links=(), cells=None):
+    """An experience map with given poses and links (i, j, d, theta, phi) built via its API."""
+    em = ExperienceMap(cfg)
+    for k, p in enumerate(poses):
+        c = cells[k] if cells is not None else (10.0 * k, 0.0, 0.0)
+        em._exp.append(pose=p, cell=c, view=k, first=k, last=k)
+        em._by_view.setdefault(k, []).append(k)
+    for i, j, d, th, ph in links:
+        em._acc[:] = (d * math.cos(th), d * math.sin(th), ph, 1.0)
+        em._add_link(i, j)
+    em._acc[:] = 0.0
+    return em
+
+
+def test_zone_of_influence_eqs_2_to_9():
+    """Eqs 2-9: E_xy = max(1 - r/r_inf, 0), E_θ = max(1 - Δθ'/θ_inf, 0), E_V in {0,1},
+    E = E_V (E_xy + E_θ) (sum) or E_V E_xy E_θ (product); distances wrap."""
+    cells = [(10.0, 10.0, 5.0), (11.0, 10.0, 6.0), (10.0, 10.0, 35.0), (59.5, 10.0, 5.0)]
+    for energy in ("sum", "product"):
+        cfg = CFG.replace(energy=energy, r_inf=2.0, theta_inf=2.0)
+        em = make_map(cfg, poses=[(0, 0, 0)] * 4, cells=cells)
+        em._exp.cols["view"][:4] = 7
+        e = em.energy(np.array([10.0, 10.0, 5.0]), 7)
+        exy = np.array([1.0, 0.5, 1.0, 0.0])          # r = 0, 1, 0, 10.5 cells
+        eth = np.array([1.0, 0.5, 0.0, 1.0])          # Δθ' = 0, 1, 6 (wrapped), 0
+        expected = exy + eth if energy == "sum" else exy * eth
+        np.testing.assert_allclose(e, expected)
+        assert np.all(em.energy(np.array([10.0, 10.0, 5.0]), 8) == 0.0)   # E_V = 0
+    # wrap across the x' face: 59.5 -> 0.5 is 1 cell
+    em = make_map(CFG, poses=[(0, 0, 0)], cells=[(59.5, 10.0, 5.0)])
+    assert em.energy(np.array([0.5, 10.0, 5.0]), 0)[0] > 0.0
+
+
+def test_sum_energy_matches_on_heading_alone_product_does_not():
+    """DESIGN trap: eq 9's sum is positive when only θ' is close; the product form is not."""
+    cells = [(40.0, 40.0, 9.0)]
+    far_peak = np.array([10.0, 10.0, 9.0])  # metres away, same heading
+    e_sum = make_map(CFG.replace(energy="sum"), [(0, 0, 0)], cells=cells).energy(far_peak, 0)
+    e_prod = make_map(CFG.replace(energy="product"), [(0, 0, 0)], cells=cells).energy(far_peak, 0)
+    assert e_sum[0] > 0.0 and e_prod[0] == 0.0
+
+
+def test_new_experience_exactly_when_no_experience_has_positive_energy():
+    """Eqs 10-11: a new experience is created iff no experience has positive energy."""
+    for energy in ("sum", "product"):
+        cfg = CFG.replace(energy=energy, r_inf=2.0, theta_inf=2.0)
+        em = ExperienceMap(cfg)
+        rng = np.random.default_rng(1)
+        tick = 0
+        for _ in range(400):
+            peak = rng.uniform([0, 0, 0], [12, 12, 8])
+            view = int(rng.integers(0, 4))
+            em.integrate(0.1, rng.uniform(0, 1), rng.normal())
+            n_before = em.size
+            had_positive = n_before > 0 and bool(np.any(em.energy(peak, view) > 0))
+            action = em.update(tick, peak, view)
+            assert (em.size == n_before + 1) == (not had_positive)
+            assert action == ("create" if not had_positive else action)
+            if had_positive:
+                e = em.energy(peak, view)
+                assert em.current == int(np.argmax(e))
+            tick += 1
+        assert 5 < em.size < 400
+
+
+def test_no_view_never_switches_or_creates():
+    em = ExperienceMap(CFG)
+    em.update(0, np.array([1.0, 1.0, 1.0]), 5)
+    assert em.size == 1
+    for k in range(1, 50):
+        em.integrate(0.1, 1.0, 0.0)
+        assert em.update(k, np.array([30.0, 30.0, 20.0]), -1) == "none"
+    assert em.size == 1 and em.current == 0
+    assert em.pose[0] == pytest.approx(4.9)
+
+
+def test_transition_stores_bearing_heading_change_distance_and_time():
+    """Transitions keep θ_ij (bearing of j in i's frame), φ_ij, d_ij and elapsed time; the new
+    experience's pose is i's pose composed with them (eqs 10-11)."""
+    em = ExperienceMap(CFG)
+    em.update(0, np.array([0.0, 0.0, 0.0]), 1)
+    em._exp.cols["pose"][0] = (2.0, 1.0, math.pi / 2)
+    for _ in range(10):  # quarter circle: 1 m/s, pi/2 rad/s for 1 s
+        em.integrate(0.1, 1.0, math.pi / 2)
+    em.update(10, np.array([20.0, 20.0, 0.0]), 2)
+    d, th, ph, dt = (em.link_column(k)[0] for k in ("d", "theta", "phi", "dt"))
+    ax, ay, aphi = 0.0, 0.0, 0.0
+    for _ in range(10):
+        aphi += math.pi / 20
+        ax += 0.1 * math.cos(aphi)
+        ay += 0.1 * math.sin(aphi)
+    assert d == pytest.approx(math.hypot(ax, ay))
+    assert th == pytest.approx(math.atan2(ay, ax))
+    assert ph == pytest.approx(math.pi / 2)
+    assert dt == pytest.approx(1.0)
+    x1, y1, t1 = em.poses[1]
+    assert x1 == pytest.approx(2.0 + d * math.cos(math.pi / 2 + th))
+    assert y1 == pytest.approx(1.0 + d * math.sin(math.pi / 2 + th))
+    assert t1 == pytest.approx(wrap_angle(math.pi))
+    assert em.pose == pytest.approx((x1, y1, t1))
+
+
+def _three_experience_map(correction):
+    cfg = CFG.replace(correction=correction, alpha_theta=0.5, alpha_d=0.5)
+    poses = [(0.0, 0.0, 0.0), (1.2, 0.1, 0.1), (1.0, 1.0, 1.5)]
+    links = [(0, 1, 1.0, 0.0, 0.0), (1, 2, 1.0, math.pi / 2, math.pi / 2),
+             (0, 2, math.sqrt(2.0), math.pi / 4, math.pi / 2)]
+    return make_map(cfg, poses, links)
+
+
+def test_eqs_12_to_14_printed_form_hand_computed():
+    """Eqs 12-14 (printed sums, α = 0.5) on three experiences, computed by hand:
+    link 0->1 puts e1 at (1, 0): residual (0.2, 0.1), Δθ residual 0.1;
+    link 1->2 puts e2 at (1.2 - sin 0.1, 0.1 + cos 0.1) = (1.1001666, 1.0950042):
+      residual (-0.1001666, -0.0950042), θ residual 1.5 - 0.1 - π/2 = -0.1707963;
+    link 0->2 puts e2 at (1, 1): residual (0, 0), θ residual 1.5 - π/2 = -0.0707963.
+    e0: Δ = +r01 + r02 = (0.2, 0.1, 0.0292037)
+    e1: Δ = -r01 + r12 = (-0.3001666, -0.1950042, -0.2707963)
+    e2: Δ = -r12 - r02 = (0.1001666, 0.0950042, 0.2415926)
+    new pose = old + 0.5 Δ."""
+    em = _three_experience_map("printed")
+    em.correct()
+    expected = np.array([
+        [0.1, 0.05, 0.01460185],
+        [1.2 - 0.1500833, 0.1 - 0.0975021, 0.1 - 0.13539815],
+        [1.0 + 0.0500833, 1.0 + 0.0475021, 1.5 + 0.1207963],
+    ])
+    np.testing.assert_allclose(em.poses, expected, atol=2e-7)
+
+
+def test_eqs_12_to_14_stable_form_is_alpha_times_mean_residual():
+    em = _three_experience_map("stable")
+    em.correct()
+    delta = np.array([[0.2, 0.1, 0.0292037], [-0.3001666, -0.1950042, -0.2707963],
+                      [0.1001666, 0.0950042, 0.2415926]])
+    before = np.array([(0.0, 0.0, 0.0), (1.2, 0.1, 0.1), (1.0, 1.0, 1.5)])
+    np.testing.assert_allclose(em.poses, before + 0.5 * delta / 2.0, atol=2e-7)  # 2 links each
+
+
+def _square_loop_map(correction, n_side=4, seed=0):
+    """Experiences around a 4 m square, links with exact odometry, poses from drifted odometry,
+    closed by a link back to the first experience (as after a snap at the start)."""
+    cfg = CFG.replace(correction=correction)
+    rng = np.random.default_rng(seed)
+    true = []
+    for side in range(4):
+        for k in range(n_side):
+            th = side * math.pi / 2
+            x0, y0 = [(0, 0), (4, 0), (4, 4), (0, 4)][side]
+            true.append((x0 + k * math.cos(th) * 4 / n_side, y0 + k * math.sin(th) * 4 / n_side, th))
+    true = np.array(true)
+    n = len(true)
+    links = []
+    for i in range(n):
+        j = (i + 1) % n
+        dx, dy = true[j, 0] - true[i, 0], true[j, 1] - true[i, 1]
+        c, s = math.cos(true[i, 2]), math.sin(true[i, 2])
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        links.append((i, j, math.hypot(lx, ly), math.atan2(ly, lx), float(wrap_angle(true[j, 2] - true[i, 2]))))
+    drift = np.cumsum(rng.normal(0, [0.05, 0.05, 0.03], size=(n, 3)), axis=0)
+    return make_map(cfg, [tuple(p) for p in true + drift], links), true
+
+
+def test_correction_residuals_shrink_geometrically_after_loop_closure():
+    """After the loop closes (snap back to the start), the stable eqs 12-14 shrink the link
+    residuals geometrically to zero for a consistent loop."""
+    em, true = _square_loop_map("stable")
+    norms = []
+    for _ in range(400):
+        norms.append(np.abs(em.link_residuals()).sum())
+        em.correct()
+    norms = np.array(norms)
+    assert norms[0] > 0.1
+    ratios = norms[50:350:50][1:] / norms[50:350:50][:-1]
+    assert np.all(ratios < 0.6), ratios      # measured: ≈ 0.20 per 50 passes
+    assert np.all(np.diff(norms[20:]) <= 1e-12)
+    assert norms[-1] < 1e-6 * norms[0]
+    # the corrected map is the true square up to a rigid motion
+    p = em.poses
+    d_true = np.hypot(*(true[:, None, :2] - true[None, :, :2]).transpose(2, 0, 1))
+    d_est = np.hypot(*(p[:, None, :2] - p[None, :, :2]).transpose(2, 0, 1))
+    assert np.abs(d_true - d_est).max() < 1e-6
+
+
+def test_printed_correction_diverges_where_experiences_have_many_links():
+    """DESIGN trap: the printed sums overshoot at experiences with more than two links."""
+    em, p = _square_loop_map("printed")
+    # extra (consistent) links between every experience and the one three ahead: degree 4
+    n = em.size
+    for i in range(n):
+        j = (i + 3) % n
+        dx, dy = p[j, 0] - p[i, 0], p[j, 1] - p[i, 1]
+        c, s = math.cos(p[i, 2]), math.sin(p[i, 2])
+        em._acc[:] = (c * dx + s * dy, -s * dx + c * dy, float(wrap_angle(p[j, 2] - p[i, 2])), 1.0)
+        em._add_link(i, j)
+    em._exp.cols["pose"][:n] += np.random.default_rng(1).normal(0, 0.05, (n, 3))
+    stable = ExperienceMap(CFG.replace(correction="stable"))
+    stable.set_state(em.get_state())
+    start = np.abs(em.link_residuals()).sum()
+    with np.errstate(all="ignore"):
+        for _ in range(60):
+            em.correct()
+    for _ in range(400):
+        stable.correct()
+    assert not np.abs(em.link_residuals()).sum() < 100 * start   # blew up (or overflowed)
+    assert np.abs(stable.link_residuals()).sum() < 0.01 * start
+
+
+def test_duplicate_transitions_are_not_added():
+    em = ExperienceMap(CFG)
+    em.update(0, np.array([0.0, 0.0, 0.0]), 1)
+    em.integrate(1.0, 1.0, 0.0)
+    em.update(1, np.array([10.0, 0.0, 0.0]), 2)
+    em.integrate(1.0, 1.0, 0.0)
+    em.update(2, np.array([0.0, 0.0, 0.0]), 1)   # back to experience 0: new link 1 -> 0
+    em.integrate(1.0, 1.0, 0.0)
+    em.update(3, np.array([10.0, 0.0, 0.0]), 2)  # 0 -> 1 again: already linked
+    assert em.size == 2
+    assert em.links.tolist() == [[0, 1]]
