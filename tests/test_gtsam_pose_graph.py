@@ -1,0 +1,200 @@
+"""PoseGraphSLAM step contract, read-access API, keyframes, closures, determinism (synthetic streams)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from baselines import PoseGraphConfig, PoseGraphSLAM
+
+DT = 1.0 / 7.0
+
+
+def square_stream(laps=2, side=4.0, speed=0.3, cell=1.0, seed=0, fp_ticks=()):
+    """A noiseless square driven counter-clockwise; scene = 1 m cell x 90 deg sector.
+
+    Returns (dt, v, w, scene, gt_xy) arrays; ``fp_ticks`` get the scene number of the
+    starting cell (a false positive far from it).
+    """
+    rng = np.random.default_rng(seed)
+    n_side = int(round(side / (speed * DT)))
+    n_turn = 14  # 90 deg in 2 s
+    dt, v, w = [], [], []
+    for _ in range(4 * laps):
+        dt += [DT] * n_side
+        v += [speed] * n_side
+        w += [0.0] * n_side
+        dt += [DT] * n_turn
+        v += [0.0] * n_turn
+        w += [math.pi / 2 / (n_turn * DT)] * n_turn
+    dt, v, w = np.array(dt), np.array(v), np.array(w)
+    x = y = th = 0.0
+    gt = np.zeros((len(dt), 3))
+    for k in range(len(dt)):
+        x += v[k] * dt[k] * math.cos(th)
+        y += v[k] * dt[k] * math.sin(th)
+        th += w[k] * dt[k]
+        gt[k] = x, y, th
+    sector = np.floor(np.mod(gt[:, 2] + math.pi / 4, 2 * math.pi) / (math.pi / 2)).astype(int)
+    cx = np.floor(gt[:, 0] / cell).astype(int)
+    cy = np.floor(gt[:, 1] / cell).astype(int)
+    scene = (cx + 10) * 1000 + (cy + 10) * 10 + sector
+    scene[rng.random(len(scene)) < 0.05] = -1
+    for k in fp_ticks:
+        scene[k] = scene[5]
+    v_noisy = v + 0.01 * rng.normal(size=len(v))
+    w_noisy = w + 0.01 * rng.normal(size=len(w))
+    return dt, v_noisy, w_noisy, scene, gt
+
+
+def run(config, stream, finalize=False):
+    slam = PoseGraphSLAM(config)
+    dt, v, w, scene, _ = stream
+    for a, b, c, s in zip(dt, v, w, scene):
+        slam.step(a, b, c, s)
+    if finalize:
+        slam.finalize()
+    return slam
+
+
+@pytest.fixture(scope="module")
+def stream():
+    return square_stream()
+
+
+def test_step_accepts_python_and_numpy_scalars():
+    """Same inputs as RatSLAM: python floats, numpy scalars, int scene ids (incl. numpy ints)."""
+    a, b = PoseGraphSLAM(), PoseGraphSLAM()
+    a.step(DT, 0.3, 0.01, 5)
+    b.step(np.float64(DT), np.float32(0.3).item(), np.float64(0.01), np.int64(5))
+    a.step(DT, 0.3, 0.01, -1)
+    b.step(np.float32(DT).item(), np.float64(0.3), np.float64(0.01), np.int32(-1))
+    assert a.tick == b.tick == 2
+    assert a.pose == pytest.approx(b.pose, abs=1e-7)
+    assert all(isinstance(c, float) for c in a.pose)
+
+
+@pytest.mark.parametrize("bad", [(DT, float("nan"), 0.0, 1), (-DT, 0.3, 0.0, 1), (DT, 0.3, 0.0, 1.5),
+                                 (DT, 0.3, 0.0, "a"), (DT, 0.3, 0.0, True)])
+def test_step_rejects_bad_input(bad):
+    with pytest.raises(ValueError, match="^step:"):
+        PoseGraphSLAM().step(*bad)
+
+
+def test_pose_before_any_step_and_tick_counting():
+    slam = PoseGraphSLAM()
+    assert slam.pose == (0.0, 0.0, 0.0) and slam.tick == 0 and slam.num_keyframes == 0
+    assert slam.keyframe_poses.shape == (0, 3) and slam.loop_closures.shape == (0, 2)
+    slam.step(DT, 0.3, 0.0, -1)
+    assert slam.tick == 1 and slam.num_keyframes == 1
+    assert slam.keyframe_ticks.tolist() == [0]
+    assert slam.pose == pytest.approx((0.3 * DT, 0.0, 0.0))
+
+
+def test_keyframes_by_distance_and_heading():
+    cfg = PoseGraphConfig(keyframe_distance=0.5, keyframe_angle=math.radians(30), keyframe_on_scene_change=False)
+    slam = PoseGraphSLAM(cfg)
+    for _ in range(70):  # 3 m straight
+        slam.step(DT, 0.3, 0.0, -1)
+    straight = slam.num_keyframes
+    assert straight == 1 + 5  # first tick, then every 0.5 m of the remaining 2.96 m
+    for _ in range(14):  # turn 90 deg on the spot
+        slam.step(DT, 0.0, math.pi / 2 / (14 * DT), -1)
+    assert slam.num_keyframes - straight == 2  # 6.43 deg per tick: a keyframe every 5 ticks (32 deg)
+    assert np.all(np.diff(slam.keyframe_ticks) > 0)
+    assert slam.keyframe_times == pytest.approx((slam.keyframe_ticks + 1) * DT)
+
+
+def test_scene_onset_takes_a_keyframe():
+    slam = PoseGraphSLAM(PoseGraphConfig(keyframe_distance=10.0))
+    for k in range(10):
+        slam.step(DT, 0.3, 0.0, 7 if k >= 5 else -1)
+    assert slam.keyframe_ticks.tolist() == [0, 5]
+    assert slam.keyframe_scenes.tolist() == [-1, 7]
+
+
+def test_read_access_shapes_and_pose_follows_keyframe(stream):
+    slam = run(PoseGraphConfig(), stream)
+    k, L = slam.num_keyframes, len(slam.loop_closures)
+    assert slam.keyframe_poses.shape == (k, 3)
+    assert slam.keyframe_ticks.shape == slam.keyframe_times.shape == (k,)
+    assert L > 0
+    lc = slam.loop_closures
+    assert np.all(lc[:, 0] < lc[:, 1])
+    assert slam.closure_ticks.shape == slam.closure_weights.shape == slam.closure_accepted.shape == (L,)
+    assert np.array_equal(slam.closure_ticks, slam.keyframe_ticks[lc[:, 1]])
+    assert slam.closure_accepted.dtype == bool
+    assert np.all((slam.closure_weights >= 0) & (slam.closure_weights <= 1))
+    # pose = latest keyframe estimate composed with odometry since (less than one keyframe apart).
+    assert np.hypot(*(np.array(slam.pose[:2]) - slam.keyframe_poses[-1, :2])) < slam.config.keyframe_distance + 0.05
+
+
+def test_no_scene_means_no_closure(stream):
+    dt, v, w, scene, gt = stream
+    slam = run(PoseGraphConfig(), (dt, v, w, np.full_like(scene, -1), gt))
+    assert len(slam.loop_closures) == 0
+
+
+def test_closures_link_only_distant_earlier_sightings(stream):
+    slam = run(PoseGraphConfig(backend="gaussian"), stream)
+    lc = slam.loop_closures
+    scenes = slam.keyframe_scenes
+    assert np.all(scenes[lc[:, 0]] == scenes[lc[:, 1]]) and np.all(scenes[lc[:, 0]] != -1)
+    gt = stream[4]
+    gi, gj = gt[slam.keyframe_ticks[lc[:, 0]]], gt[slam.keyframe_ticks[lc[:, 1]]]
+    assert np.all(np.hypot(gi[:, 0] - gj[:, 0], gi[:, 1] - gj[:, 1]) < 1.5)  # noiseless labels: all true
+    # Odometric path between the two keyframes is at least closure_min_travel: they are laps apart.
+    assert np.all(slam.keyframe_times[lc[:, 1]] - slam.keyframe_times[lc[:, 0]] > 4.0 / 0.3)
+
+
+def test_gaussian_weights_are_one(stream):
+    slam = run(PoseGraphConfig(backend="gaussian"), stream)
+    assert np.all(slam.closure_weights == 1.0) and slam.closure_accepted.all()
+
+
+def test_robust_rejects_a_planted_false_positive():
+    """A far-away scene match gets a small weight from the robust kernel and GNC."""
+    dt, v, w, scene, gt = square_stream(laps=2, fp_ticks=(705,))
+    for backend in ("robust", "gnc"):
+        slam = run(PoseGraphConfig(backend=backend), (dt, v, w, scene, gt), finalize=True)
+        lc = slam.loop_closures
+        k = slam.keyframe_ticks
+        far = np.hypot(*(gt[k[lc[:, 0]], :2] - gt[k[lc[:, 1]], :2]).T) > 1.5
+        assert far.sum() == 1, backend
+        assert not slam.closure_accepted[far].any(), backend
+        assert slam.closure_weights[far][0] < 0.1, backend
+        assert slam.closure_accepted[~far].mean() > 0.9, backend
+
+
+def test_offline_mode_chains_odometry_until_finalize(stream):
+    slam = run(PoseGraphConfig(online=False, final_batch=True), stream)
+    before = slam.keyframe_poses.copy()
+    slam.finalize()
+    after = slam.keyframe_poses
+    assert before.shape == after.shape
+    assert not np.allclose(before, after)  # the batch optimisation moved the chain
+    assert slam.pose == pytest.approx(tuple(after[-1]), abs=0.6)
+
+
+def test_final_batch_agrees_with_isam2(stream):
+    online = run(PoseGraphConfig(), stream, finalize=True)
+    batch = run(PoseGraphConfig(final_batch=True), stream, finalize=True)
+    assert np.allclose(online.keyframe_poses[:, :2], batch.keyframe_poses[:, :2], atol=0.05)
+
+
+def test_step_after_finalize_continues_online(stream):
+    slam = run(PoseGraphConfig(final_batch=True), stream, finalize=True)
+    k = slam.num_keyframes
+    for _ in range(30):
+        slam.step(DT, 0.3, 0.0, -1)
+    assert slam.num_keyframes > k and slam.keyframe_poses.shape == (slam.num_keyframes, 3)
+
+
+@pytest.mark.parametrize("backend", ["gaussian", "robust", "gnc"])
+def test_deterministic(stream, backend):
+    """Same input -> bit-identical keyframe poses and closure weights."""
+    cfg = PoseGraphConfig(backend=backend, final_batch=True)
+    a, b = run(cfg, stream, finalize=True), run(cfg, stream, finalize=True)
+    assert np.array_equal(a.keyframe_poses, b.keyframe_poses)
+    assert np.array_equal(a.closure_weights, b.closure_weights)
+    assert a.pose == b.pose
