@@ -23,13 +23,24 @@ class RatSLAMConfig:
         floors one pose-cell region serves several places (the paper's Fig 4 "hash collision").
         36 heading cells of 10 degrees.
       cell_size_m: side of an (x', y') cell, 0.25 m (the paper's indoor value).
-      excite_sigma, excite_radius: Gaussian local excitation, width in cells and truncation
-        radius; the weights sum to 1 so excitation conserves activity.
-      inhibit_sigma, inhibit_radius, inhibit_weight: wider Gaussian local inhibition; after
-        excitation the network subtracts ``inhibit_weight`` times the inhibition-blurred activity.
-      global_inhibition: constant subtracted from every cell afterwards (then clipped at zero);
-        this is what removes weak, unsupported activity such as one tick of a false view.
+      excite_sigma, excite_sigma_theta, excite_radius: separable Gaussian local excitation,
+        widths (cells) in (x', y') and in θ', truncation radius; the weights sum to 1, so
+        excitation conserves activity. A narrower heading profile keeps the layers of the packet
+        moving in nearly the same direction (the packet's x'y' speed is the activity-weighted
+        mean of cos Δθ over its heading layers).
+      inhibit_sigma, inhibit_sigma_theta, inhibit_radius, inhibit_weight: wider Gaussian local
+        inhibition; after excitation the network subtracts ``inhibit_weight`` times the
+        inhibition-blurred activity.
+      global_inhibition: constant subtracted from every cell afterwards (then clipped at zero).
+        It sets how long unsupported activity (one tick of a false view) survives: small enough
+        that a few consecutive familiar scenes add up into a packet that wins, large enough that
+        a lone false view fades without moving the peak.
       Activity is then normalised to total 1.
+      pc_trans_gain: gain on the translation fed to path integration. The clipping in the
+        competitive dynamics trims the leading edge of a moving packet, so on the lattice it
+        moves ~5% slower than the shift applied (measured for the default network: 0.95 of
+        v·t at 0.3 m/s, 0.93 at 0.1 m/s, 0.98 at 0.6 m/s). 1.05 compensates at the paper's
+        0.3 m/s; 1.0 is the uncompensated network.
       peak_radius: half-width (cells) of the neighbourhood whose wrap-aware weighted circular
         mean refines the strongest cell into the peak.
       pi_bias_deg_s: constant added to the rotational velocity used by the pose cells' path
@@ -44,13 +55,22 @@ class RatSLAMConfig:
       view_learn_threshold: pose cells weaker than this fraction of the packet maximum are not
         associated (keeps associations sparse).
       view_fatigue_rate, view_fatigue_recovery: habituation of a view cell. Its activity is
-        V = max(1 - fatigue, 0); fatigue grows by the rate on each consecutive tick the scene stays
-        in view and recovers by the recovery value on every other tick. A scene seen for a while
-        therefore injects (and learns) only around its onset and cannot pin the packet.
+        V = max(1 - fatigue, 0); fatigue grows by the rate on each tick the scene is in view
+        (capped at 2) and recovers by the recovery value on every other tick. A scene seen for a
+        while therefore injects (and learns) only around its onset (10 ticks at the default) and
+        cannot pin the packet; a lone aliased scene injects a bounded amount, while a sequence
+        of familiar scenes injects at every scene onset, consistently, and so snaps the packet.
       view_min_age_ticks: associations younger than this many ticks never inject, so a view does
         not pull the packet back to where it was learnt moments ago.
 
     Experience map (paper eqs 2-14):
+      view_confirm_ticks: the experience map acts on a scene (switching to or creating an
+        experience) only once the same scene number has been reported on this many consecutive
+        ticks; until then the tick counts as "no view" for the map (the pose cells and view cells
+        still see it). 1 is the paper's behaviour. With 1, a one-tick false positive that
+        happens to come while the packet sits where an experience with that view lies (two
+        places sharing pose cells, which the bent pose-cell paths of Figs 8-10 make common)
+        switches to that experience and adds a false transition; 2 ignores such one-tick views.
       r_inf: zone of influence radius in (x', y') cells (eqs 2-3).
       theta_inf: zone of influence in θ' cells (eqs 4-5).
       energy: "sum" = paper eq 9, E = E_V (E_xy + E_θ): a view can match on heading alone, so an
@@ -88,6 +108,7 @@ class RatSLAMConfig:
     view_fatigue_recovery: float = 0.05
     view_min_age_ticks: int = 70
     # experience map
+    view_confirm_ticks: int = 2
     r_inf: float = 2.0
     theta_inf: float = 2.0
     energy: str = "product"
@@ -119,6 +140,8 @@ class RatSLAMConfig:
                 raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
         if not 0 <= self.view_learn_threshold < 1:
             raise ValueError(f"view_learn_threshold must be in [0, 1), got {self.view_learn_threshold!r}")
+        if not isinstance(self.view_confirm_ticks, int) or self.view_confirm_ticks < 1:
+            raise ValueError(f"view_confirm_ticks must be an integer >= 1, got {self.view_confirm_ticks!r}")
         if not isinstance(self.view_min_age_ticks, int) or self.view_min_age_ticks < 1:
             raise ValueError(f"view_min_age_ticks must be an integer >= 1, got {self.view_min_age_ticks!r}")
         if not (isinstance(self.pi_bias_deg_s, (int, float)) and math.isfinite(self.pi_bias_deg_s)):

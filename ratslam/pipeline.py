@@ -38,6 +38,7 @@ class RatSLAM:
         self._snapped = False
         self._bias = math.radians(self._config.pi_bias_deg_s)
         self._grid = np.array(self._config.shape, dtype=float)
+        self._last_scene, self._scene_run = -1, 0   # consecutive ticks of the current scene
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -54,9 +55,14 @@ class RatSLAM:
         d = np.abs(new_peak - old_peak)
         d = np.minimum(d, self._grid - d)                     # wrap-aware jump in cells
         self._snapped = bool(math.sqrt(float(d @ d)) > self._config.snap_cells)
+        if scene_id == self._last_scene:
+            self._scene_run += 1
+        else:
+            self._last_scene, self._scene_run = scene_id, 1
         em = self.experience_map
         em.integrate(dt, v_trans, v_rot)
-        em.update(k, new_peak, scene_id)
+        confirmed = scene_id if self._scene_run >= self._config.view_confirm_ticks else -1
+        em.update(k, new_peak, confirmed)
         for _ in range(self._config.correction_iterations):
             em.correct()
         self._tick += 1
@@ -162,7 +168,8 @@ class RatSLAM:
         arrays.update(self.pose_cells.get_state())
         arrays.update(self.local_view.get_state())
         arrays.update(self.experience_map.get_state())
-        arrays["rs_tick"] = np.array([self._tick, int(self._snapped)], dtype=np.int64)
+        arrays["rs_tick"] = np.array([self._tick, int(self._snapped), self._last_scene, self._scene_run],
+                                     dtype=np.int64)
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
@@ -180,6 +187,6 @@ class RatSLAM:
         obj.pose_cells.set_state(s)
         obj.local_view.set_state(s)
         obj.experience_map.set_state(s)
-        obj._tick, snapped = (int(v) for v in s["rs_tick"])
+        obj._tick, snapped, obj._last_scene, obj._scene_run = (int(v) for v in s["rs_tick"])
         obj._snapped = bool(snapped)
         return obj

@@ -176,18 +176,26 @@ class PoseCells:
                 np.add.at(act, (local[0, inside], local[1, inside], local[2, inside]), energy[inside])
                 todo &= ~inside
         if todo.any():
-            g, e = g[:, todo], energy[todo]
-            start = np.empty(3, dtype=np.int64)
-            shape = []
-            for a in range(3):
-                occ = np.zeros(int(self._n[a]), dtype=bool)
-                occ[g[a]] = True
-                start[a], length = _cover_arc(occ)
-                shape.append(length)
-            act = np.zeros(shape)
-            local = (g - start[:, None]) % self._n[:, None]
-            np.add.at(act, (local[0], local[1], local[2]), e)
-            self._boxes.append([start, act])
+            g, energy = g[:, todo], energy[todo]
+            # one new box per cluster of cells (boxes that turn out close are merged later)
+            remaining = np.arange(g.shape[1])
+            while remaining.size:
+                d = np.abs(g[:, remaining] - g[:, remaining[:1]])
+                d = np.minimum(d, self._n[:, None] - d)
+                near = np.all(d <= 2 * self._reach, axis=0)
+                members, remaining = remaining[near], remaining[~near]
+                gc = g[:, members]
+                start = np.empty(3, dtype=np.int64)
+                shape = []
+                for a in range(3):
+                    occ = np.zeros(int(self._n[a]), dtype=bool)
+                    occ[gc[a]] = True
+                    start[a], length = _cover_arc(occ)
+                    shape.append(length)
+                act = np.zeros(shape)
+                local = (gc - start[:, None]) % self._n[:, None]
+                np.add.at(act, (local[0], local[1], local[2]), energy[members])
+                self._boxes.append([start, act])
 
     def _merge_interacting(self) -> None:
         """Merge boxes that are close enough to interact during one iteration."""

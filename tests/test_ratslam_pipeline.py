@@ -96,6 +96,8 @@ def test_only_blank_scenes_give_no_experiences_and_pure_odometry():
 def test_pose_is_current_experience_composed_with_odometry():
     slam = RatSLAM()
     slam.step(DT, 0.3, 0.0, 5)
+    slam.step(DT, 0.3, 0.0, 5)   # confirmed on its second tick: experience created
+    assert slam.current_experience == 0
     for _ in range(10):
         slam.step(DT, 0.3, 0.1, -1)
     ex, ey, et = slam.experience_poses[slam.current_experience]
@@ -167,6 +169,16 @@ def test_save_load_round_trip_is_exact(tmp_path):
     for name in ("experience_poses", "links", "peak", "pose_cell_activity"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     assert a.pose == b.pose and a.current_experience == b.current_experience
+
+
+def test_one_tick_view_never_switches_experiences_by_default():
+    """A one-tick scene (false positive) does not reach the experience map (view_confirm_ticks=2);
+    with view_confirm_ticks=1 (the paper's behaviour) it does."""
+    for confirm, expected in ((2, 1), (1, 2)):
+        slam = RatSLAM(CFG.replace(view_confirm_ticks=confirm))
+        for s in [7, 7, 7, 9, 7, 7]:
+            slam.step(DT, 0.0, 0.0, s)
+        assert len(slam.experience_poses) == expected
 
 
 def test_load_rejects_other_files(tmp_path):
