@@ -52,18 +52,15 @@ def prefill_map(slam: RatSLAM, n_experiences: int, seed: int = 0) -> None:
     rng = np.random.default_rng(seed)
     pose = np.zeros(3)
     for i in range(n_experiences):
-        em._exp.append(pose=pose.copy(), cell=rng.uniform(0, 60, 3), view=-1000 - i, first=0, last=0)
+        em.add_experience(pose, rng.uniform(0, 60, 3), -1000 - i, 0)
         step = rng.normal([0.3, 0.0, 0.0], [0.05, 0.05, 0.2])
         c, s = math.cos(pose[2]), math.sin(pose[2])
         pose = pose + [c * step[0] - s * step[1], s * step[0] + c * step[1], step[2]]
         if i:
-            em._acc[:] = (step[0], step[1], step[2], 1.0)
-            em._add_link(i - 1, i)
+            em.add_transition(i - 1, i, step[0], step[1], step[2], 1.0)
     for _ in range(n_experiences // 10):
         i, j = rng.integers(0, n_experiences, 2)
-        em._acc[:] = (*rng.normal(0, 1, 3), 1.0)
-        em._add_link(int(i), int(j))
-    em._acc[:] = 0.0
+        em.add_transition(int(i), int(j), *rng.normal(0, 1, 3), 1.0)
     em.current = -1
 
 

@@ -41,8 +41,9 @@ _PI = math.pi
 
 
 def wrap_angle(a):
-    """Wrap radians into [-π, π)."""
-    return (np.asarray(a) + _PI) % (2.0 * _PI) - _PI
+    """Wrap radians into [-π, π]."""
+    a = np.asarray(a)
+    return a - (2.0 * _PI) * np.round(a * (1.0 / (2.0 * _PI)))
 
 
 def _wrap_scalar(a: float) -> float:
@@ -88,7 +89,9 @@ class ExperienceMap:
 
     def __init__(self, config: RatSLAMConfig):
         self.config = config
-        self._exp = _Growable({"pose": ((3,), float), "cell": ((3,), float), "view": ((), np.int64),
+        # map poses as separate x, y, θ columns: contiguous arrays for the per-tick correction
+        self._exp = _Growable({"x": ((), float), "y": ((), float), "th": ((), float),
+                               "cell": ((3,), float), "view": ((), np.int64),
                                "first": ((), np.int64), "last": ((), np.int64), "degree": ((), float)})
         self._link = _Growable({"from": ((), np.int64), "to": ((), np.int64), "d": ((), float),
                                 "theta": ((), float), "phi": ((), float), "dt": ((), float)})
@@ -98,6 +101,7 @@ class ExperienceMap:
         # odometry accumulated since the current experience was entered, in its frame
         self._acc = np.zeros(4)  # x, y, phi, t
         self._grid = np.array(config.shape, dtype=float)
+        self._scatter_key = None
 
     # ------------------------------------------------------------------ read access
     @property
@@ -106,7 +110,15 @@ class ExperienceMap:
 
     @property
     def poses(self) -> np.ndarray:
-        return self._exp.view("pose")
+        """Map poses (N, 3): x, y (m), θ (rad), as a new array."""
+        return np.stack((self._exp.view("x"), self._exp.view("y"), self._exp.view("th")), axis=1)
+
+    def set_poses(self, poses: np.ndarray) -> None:
+        """Overwrite all map poses with an (N, 3) array."""
+        poses = np.asarray(poses, dtype=float)
+        n = self._exp.n
+        for k, key in enumerate(("x", "y", "th")):
+            self._exp.cols[key][:n] = poses[:, k]
 
     @property
     def cells(self) -> np.ndarray:
@@ -139,7 +151,8 @@ class ExperienceMap:
         ax, ay, aphi, _ = self._acc
         if self.current < 0:
             return (float(ax), float(ay), float(_wrap_scalar(aphi)))
-        x, y, th = self._exp.cols["pose"][self.current]
+        c = self._exp.cols
+        x, y, th = c["x"][self.current], c["y"][self.current], c["th"][self.current]
         c, s = math.cos(th), math.sin(th)
         return (float(x + c * ax - s * ay), float(y + s * ax + c * ay), float(_wrap_scalar(th + aphi)))
 
@@ -170,23 +183,35 @@ class ExperienceMap:
         return e_v * e_xy * e_th
 
     # ------------------------------------------------------------------ eqs 10-11
-    def _new_experience(self, tick: int, peak_cell: np.ndarray, view: int) -> int:
-        pose = self.pose
-        j = self._exp.append(pose=pose, cell=peak_cell, view=view, first=tick, last=tick)
+    def add_experience(self, pose, cell, view: int, tick: int) -> int:
+        """Append an experience with a given map pose, pose-cell coordinates and view; returns
+        its index (eqs 10-11 call this with the current pose)."""
+        x, y, th = (float(v) for v in pose)
+        j = self._exp.append(x=x, y=y, th=th, cell=cell, view=view, first=tick, last=tick)
         self._by_view.setdefault(int(view), []).append(j)
         return j
 
+    def _new_experience(self, tick: int, peak_cell: np.ndarray, view: int) -> int:
+        return self.add_experience(self.pose, peak_cell, view, tick)
+
     def _add_link(self, i: int, j: int) -> None:
+        ax, ay, aphi, at = self._acc
+        self.add_transition(i, j, ax, ay, aphi, at)
+
+    def add_transition(self, i: int, j: int, dx: float, dy: float, dphi: float, dt: float) -> bool:
+        """Link i -> j from odometry (dx, dy, dphi) accumulated in i's frame over dt seconds.
+        Returns False (and adds nothing) if i == j or the two are already linked."""
         key = (min(i, j), max(i, j))
         if i == j or key in self._linked:
-            return
-        ax, ay, aphi, at = self._acc
+            return False
+        ax, ay, aphi, at = dx, dy, dphi, dt
         self._link.append(**{"from": i, "to": j, "d": math.hypot(ax, ay), "theta": math.atan2(ay, ax),
                              "phi": _wrap_scalar(aphi), "dt": at})
         self._linked.add(key)
         deg = self._exp.cols["degree"]
         deg[i] += 1.0
         deg[j] += 1.0
+        return True
 
     def update(self, tick: int, peak_cell: np.ndarray, view: int) -> str:
         """Experience selection for this tick. ``view`` is the scene number (-1: no view, which
@@ -222,18 +247,33 @@ class ExperienceMap:
     def link_residuals(self) -> np.ndarray:
         """Per link i -> j: (x_j - x̂_j, y_j - ŷ_j, wrap(θ_j - θ_i - φ_ij)), where x̂_j, ŷ_j is
         where i's map pose and the link put j."""
-        lk = self._link
-        m = lk.n
-        if m == 0:
-            return np.zeros((0, 3))
-        pose = self._exp.cols["pose"]
-        fi, tj = lk.cols["from"][:m], lk.cols["to"][:m]
-        pi, pj = pose[fi], pose[tj]
-        ang = pi[:, 2] + lk.cols["theta"][:m]
-        rx = pj[:, 0] - pi[:, 0] - lk.cols["d"][:m] * np.cos(ang)
-        ry = pj[:, 1] - pi[:, 1] - lk.cols["d"][:m] * np.sin(ang)
-        rt = wrap_angle(pj[:, 2] - pi[:, 2] - lk.cols["phi"][:m])
-        return np.stack((rx, ry, rt), axis=1)
+        return np.stack(self._residual_columns(), axis=1)
+
+    def _residual_columns(self):
+        m = self._link.n
+        lk, ex = self._link.cols, self._exp.cols
+        fi, tj = lk["from"][:m], lk["to"][:m]
+        thi = ex["th"].take(fi)
+        ang = thi + lk["theta"][:m]
+        d = lk["d"][:m]
+        rx = ex["x"].take(tj) - ex["x"].take(fi) - d * np.cos(ang)
+        ry = ex["y"].take(tj) - ex["y"].take(fi) - d * np.sin(ang)
+        rt = wrap_angle(ex["th"].take(tj) - thi - lk["phi"][:m])
+        return rx, ry, rt
+
+    def _scatter_index(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """Experience index each link's residual adds to (+ at from, - at to, concatenated) and
+        the per-experience divisor of the stable form (None for the printed sums)."""
+        key = (self._exp.n, self._link.n, self.config.correction)
+        if self._scatter_key != key:
+            m = self._link.n
+            self._scatter = np.concatenate((self._link.cols["from"][:m], self._link.cols["to"][:m]))
+            if self.config.correction == "stable":
+                self._divisor = 1.0 / np.maximum(self._exp.cols["degree"][: self._exp.n], 1.0)
+            else:
+                self._divisor = None
+            self._scatter_key = key
+        return self._scatter, self._divisor
 
     def correct(self) -> None:
         """One pass of eqs 12-14 over all links (vectorised, simultaneous update)."""
@@ -241,20 +281,18 @@ class ExperienceMap:
         if m == 0:
             return
         cfg = self.config
-        res = self.link_residuals()
-        fi = self._link.cols["from"][:m]
-        tj = self._link.cols["to"][:m]
-        delta = np.empty((n, 3))
-        for c in range(3):
-            # a link i -> j adds +residual to i (eq term over j) and -residual to j (term over k)
-            delta[:, c] = np.bincount(fi, res[:, c], minlength=n) - np.bincount(tj, res[:, c], minlength=n)
-        if cfg.correction == "stable":
-            deg = self._exp.cols["degree"][:n]
-            delta /= np.maximum(deg, 1.0)[:, None]
-        pose = self._exp.cols["pose"]
-        pose[:n, 0] += cfg.alpha_d * delta[:, 0]
-        pose[:n, 1] += cfg.alpha_d * delta[:, 1]
-        pose[:n, 2] = wrap_angle(pose[:n, 2] + cfg.alpha_theta * delta[:, 2])
+        index, inv_degree = self._scatter_index()
+        ex = self._exp.cols
+        deltas = []
+        for r in self._residual_columns():
+            # a link i -> j adds +residual to i (the sum over j) and -residual to j (the sum over k)
+            delta = np.bincount(index, np.concatenate((r, -r)), minlength=n)
+            if inv_degree is not None:
+                delta *= inv_degree                             # stable: α times the mean residual
+            deltas.append(delta)
+        ex["x"][:n] += cfg.alpha_d * deltas[0]
+        ex["y"][:n] += cfg.alpha_d * deltas[1]
+        ex["th"][:n] = wrap_angle(ex["th"][:n] + cfg.alpha_theta * deltas[2])
 
     # ------------------------------------------------------------------ state i/o
     def get_state(self) -> dict:
@@ -271,6 +309,7 @@ class ExperienceMap:
         self._link.load({k: s[f"lk_{k}"] for k in self._link.cols})
         self.current = int(s["em_current"][0])
         self._acc = np.asarray(s["em_acc"], dtype=float).copy()
+        self._scatter_key = None
         self._by_view = {}
         for i, v in enumerate(self.views):
             self._by_view.setdefault(int(v), []).append(i)

@@ -97,6 +97,10 @@ class PoseCells:
         start = np.array([t % config.n_theta, x % config.nx, y % config.ny], dtype=np.int64)
         self._boxes: list[list] = [[start, np.ones((1, 1, 1))]]
         self._peak = np.array([float(start[1]), float(start[2]), float(start[0])])
+        rad = config.peak_radius
+        self._offsets = np.arange(2 * rad + 1)
+        ang = np.arange(-rad, rad + 1)[None, :] * (_TWO_PI / self._n[:, None])   # per axis (θ, x, y)
+        self._peak_sin, self._peak_cos = np.sin(ang), np.cos(ang)
         angles = np.arange(config.n_theta) * config.theta_cell_rad
         self._cos = np.cos(angles)
         self._sin = np.sin(angles)
@@ -412,29 +416,30 @@ class PoseCells:
             bi = int(np.argmax([b[1].max() for b in boxes]))
         start, act = boxes[bi]
         c = np.unravel_index(int(np.argmax(act)), act.shape)
-        cg = (start + np.array(c)) % self._n            # global strongest cell
+        cg = (start + c) % self._n                      # global strongest cell
         rad = self.config.peak_radius
-        d = np.arange(-rad, rad + 1)
-        sums = [np.zeros(d.size), np.zeros(d.size), np.zeros(d.size)]
+        sums = np.zeros((3, 2 * rad + 1))
         for start, act in boxes:
-            idx, offs = [], []
-            for a in range(3):
-                rel = (cg[a] + d - start[a]) % self._n[a]
-                keep = rel < act.shape[a]
-                idx.append(rel[keep])
-                offs.append(np.flatnonzero(keep))
-            if any(i.size == 0 for i in idx):
-                continue
-            sub = act[np.ix_(*idx)]
-            sums[0][offs[0]] += sub.sum(axis=(1, 2))
-            sums[1][offs[1]] += sub.sum(axis=(0, 2))
-            sums[2][offs[2]] += sub.sum(axis=(0, 1))
-        peak = np.empty(3)
-        for a in range(3):
-            n = int(self._n[a])
-            ang = d * (_TWO_PI / n)
-            w = sums[a]
-            mean = math.atan2(float(w @ np.sin(ang)), float(w @ np.cos(ang))) * n / _TWO_PI
-            p = (cg[a] + mean) % n
-            peak[a] = p if p < n else 0.0        # (-tiny) % n rounds to n
-        self._peak = np.array([peak[1], peak[2], peak[0]])
+            rel = (cg - rad - start) % self._n          # neighbourhood start, box-relative
+            shape = act.shape
+            if all(rel[a] + 2 * rad < shape[a] for a in range(3)):   # inside, no wrap
+                sub = act[rel[0]:rel[0] + 2 * rad + 1, rel[1]:rel[1] + 2 * rad + 1,
+                          rel[2]:rel[2] + 2 * rad + 1]
+                offs = (slice(None),) * 3
+            else:
+                idx, offs = [], []
+                for a in range(3):
+                    r = (rel[a] + self._offsets) % self._n[a]
+                    keep = r < shape[a]
+                    idx.append(r[keep])
+                    offs.append(np.flatnonzero(keep))
+                if any(i.size == 0 for i in idx):
+                    continue
+                sub = act[np.ix_(*idx)]
+            sums[0, offs[0]] += sub.sum(axis=(1, 2))
+            sums[1, offs[1]] += sub.sum(axis=(0, 2))
+            sums[2, offs[2]] += sub.sum(axis=(0, 1))
+        mean = np.arctan2((sums * self._peak_sin).sum(axis=1), (sums * self._peak_cos).sum(axis=1))
+        peak = (cg + mean * self._n / _TWO_PI) % self._n
+        peak[peak >= self._n] = 0.0                      # (-tiny) % n rounds to n
+        self._peak = peak[[1, 2, 0]]

@@ -91,9 +91,11 @@ def test_fig8_path_integration_bias_experience_map_stays_true(fp_rate):
     consistent (ATE <= 0.3 m), also with default aliasing and 1% per-tick false positives."""
     slam, log, peaks, snaps = run(0.0, fp_rate, pi_bias_deg_s=3.0)
     err = experience_ate(slam, log)
-    assert err <= 0.3, err                     # measured: THRESH_I
-    assert snaps >= 5, snaps                   # measured: SNAPS_I
-    assert heading_drift_deg(slam, log, peaks) > 45.0
+    # measured (seed 0): ATE 0.154 m / 0.144 m (fp 0 / 0.01), seeds 1-2 <= 0.18 m; 48 / 28 snaps;
+    # pose-cell heading error spread 178 / 264 degrees
+    assert err <= 0.3, err
+    assert snaps >= 10, snaps
+    assert heading_drift_deg(slam, log, peaks) > 90.0
 
 
 @pytest.mark.slow
@@ -105,6 +107,30 @@ def test_odometric_bias_experience_map_beats_odometry(fp_rate):
     slam, log, _, snaps = run(1.5, fp_rate)
     err = experience_ate(slam, log)
     odo = odometry_ate(log)
-    assert err <= 0.5, err                     # measured: THRESH_II
+    # measured (seed 0): ATE 0.189 m / 0.177 m (fp 0 / 0.01), seeds 1-2 <= 0.19 m; odometry 3.20 m
+    assert err <= 0.5, err
     assert odo >= 5.0 * err, (odo, err)
-    assert snaps >= 5
+    assert snaps >= 10
+
+
+@pytest.mark.slow
+def test_printed_correction_diverges_on_the_loop():
+    """DESIGN trap: eqs 12-14 as printed (sums, α = 0.5) overshoot where an experience has more
+    than two links; on the loop the map blows up within the run (measured: non-finite poses)."""
+    with np.errstate(all="ignore"):
+        slam, _, _, _ = run(1.5, 0.0, correction="printed")
+    poses = slam.experience_poses
+    assert not np.all(np.isfinite(poses)) or np.abs(poses).max() > 1e3
+
+
+@pytest.mark.slow
+def test_sum_energy_without_view_confirmation_collapses_under_false_positives():
+    """DESIGN trap: eq 9's sum lets a one-tick false positive switch to an experience metres
+    away on heading alone. With the paper's behaviour (sum energy, views act on their first
+    tick) 1% per-tick false positives collapse the map (measured 2.20 m ATE under the 3 deg/s
+    path-integration bias); the default (product energy, views confirmed on a second tick)
+    holds it (0.144 m). Product energy alone is not enough here (measured 1.20 m)."""
+    naive, log, _, _ = run(0.0, 0.01, pi_bias_deg_s=3.0, energy="sum", view_confirm_ticks=1)
+    default, _, _, _ = run(0.0, 0.01, pi_bias_deg_s=3.0)
+    assert experience_ate(naive, log) > 1.0
+    assert experience_ate(default, log) < 0.3
