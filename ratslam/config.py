@@ -74,12 +74,18 @@ class RatSLAMConfig:
       r_inf: zone of influence radius in (x', y') cells (eqs 2-3).
       theta_inf: zone of influence in θ' cells (eqs 4-5).
       energy: "sum" = paper eq 9, E = E_V (E_xy + E_θ): a view can match on heading alone, so an
-        aliased or false-positive scene can switch to an experience metres away.
+        aliased or false-positive scene can switch to an experience metres away; an experience
+        stays current for as long as its scene is in view, so the map is sparser (one
+        experience per scene visit).
         "product" = E_V E_xy E_θ: the stricter form, the view must agree on place and heading.
+        Measured on small_loop (15 min, seed 0, experience ATE): with view confirmation both
+        hold (product 0.14-0.19 m, sum 0.14-0.22 m); with view_confirm_ticks=1 and 1%
+        false positives both collapse (product 1.2-1.3 m, sum 1.9-2.2 m).
       alpha_theta, alpha_d: correction rates of eqs 12-14 (paper Table 1: 0.5).
       correction: "stable" = α times the mean residual over the experience's links (converges);
         "printed" = α times the sum of residuals exactly as printed; it overshoots at experiences
-        with more than two links and diverges (kept for the record, not for use).
+        with more than two links and diverges (kept for the record, not for use; measured: the
+        small_loop map's poses become non-finite within the 15-minute run).
       correction_iterations: correction passes per tick (the paper runs one per tick).
     """
 

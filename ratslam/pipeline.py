@@ -24,7 +24,8 @@ class RatSLAM:
     if it is familiar; the pose cells iterate and path-integrate the odometry (plus the optional
     path-integration bias); the view cell learns its association with the active pose cells; the
     experience map integrates the wheel odometry, selects/creates the current experience
-    (eqs 2-11) and runs its correction (eqs 12-14).
+    (eqs 2-11) once the scene has been seen for ``view_confirm_ticks`` consecutive ticks, and
+    runs its correction (eqs 12-14).
 
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
     """

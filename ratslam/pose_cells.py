@@ -10,11 +10,12 @@ The network wraps on every axis. One iteration (``step``) is, in order:
    heading, bilinear sub-cell shift), then all layers are rotated along θ' by ω·dt (linear
    sub-cell shift). Both shifts conserve activity and wrap.
 
-After global inhibition nearly every cell is exactly zero, so the network stores only a
-wrap-aware bounding box around the non-zero cells (``_start`` plus a small local array) and
-applies each linear operator as a small matrix per axis (all kernels are separable Gaussians).
-The full grid is materialised only when asked for (:attr:`activity`). The result equals the
-same update run over the whole grid (``ratslam.pose_cells_reference``) to rounding.
+After global inhibition nearly every cell is exactly zero, so the network stores only
+wrap-aware bounding boxes around the non-zero cells (one per packet; boxes close enough to
+interact are merged before each iteration) and applies each linear operator as a small matrix
+per axis (all kernels are separable Gaussians). The full grid is materialised only when asked
+for (:attr:`PoseCells.activity`). The result equals the same update run over the whole grid
+(:mod:`ratslam.pose_cells_reference`) to rounding (tested).
 
 Internally the local array is laid out (θ', x', y'); public coordinates are (x', y', θ').
 """

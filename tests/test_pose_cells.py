@@ -86,7 +86,7 @@ def test_straight_line_10m_peak_within_one_cell_of_vt():
         dist = v * DT * steps / CFG.cell_size_m
         expected = start + np.array([dist * math.cos(th), dist * math.sin(th), 0.0])
         err = wrapped_diff(pc.peak, expected, GRID)
-        assert np.hypot(err[0], err[1]) < 1.0, (heading_cell, err)
+        assert np.hypot(err[0], err[1]) < 1.0, (heading_cell, err)   # measured <= 0.55 cells
         assert abs(err[2]) < 1.0
 
 
