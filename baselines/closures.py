@@ -20,7 +20,8 @@ import math
 class SceneIndex:
     """Scene number -> keyframes that saw it, in creation order."""
 
-    def __init__(self, min_travel: float, max_candidates: int, window: int) -> None:
+    def __init__(self, min_travel: float, max_candidates: int, window: int, tolerance: float = 0.0) -> None:
+        self._tolerance = tolerance
         self._min_travel = min_travel
         self._max_candidates = max_candidates
         self._window = window
@@ -60,4 +61,10 @@ class SceneIndex:
             x, y = estimate_xy(i)
             ranked.append((math.hypot(x - nx, y - ny), i))
         ranked.sort()
+        if self._tolerance > 0.0:
+            # Sightings about as near as the nearest: prefer the most recent.
+            limit_d = ranked[0][0] + self._tolerance
+            near = sorted((i for d, i in ranked if d <= limit_d), reverse=True)
+            far = [i for d, i in ranked if d > limit_d]
+            return (near + far)[: self._max_candidates]
         return [i for _, i in ranked[: self._max_candidates]]

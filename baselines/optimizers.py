@@ -13,8 +13,16 @@ from .config import PoseGraphConfig
 def make_isam2(config: PoseGraphConfig) -> gtsam.ISAM2:
     """iSAM2 with the configured relinearisation threshold and skip."""
     params = gtsam.ISAM2Params()
-    params.setRelinearizeThreshold(config.isam2_relinearize_threshold)
-    params.relinearizeSkip = config.isam2_relinearize_skip
+    if config.estimate_yaw_bias:
+        # Per-variable thresholds: poses ('x') as configured, the bias ('b') much finer,
+        # since a bias delta of 0.1 rad/s would be a 6 deg/s error.
+        thresholds = gtsam.ISAM2ThresholdMap()
+        thresholds.insert(("x", np.full(3, config.isam2_relinearize_threshold)))
+        thresholds.insert(("b", np.array([config.isam2_bias_relinearize_threshold])))
+        params.setRelinearizeThreshold(thresholds)
+    else:
+        params.setRelinearizeThreshold(config.isam2_relinearize_threshold)
+    params.relinearizeSkip = config.relinearize_skip
     return gtsam.ISAM2(params)
 
 

@@ -39,7 +39,8 @@ class PoseGraphSLAM:
 
     Step contract: ``step(dt, v_trans, v_rot, scene_id)`` once per tick (seconds,
     m/s, rad/s, int; -1 = no scene); ``pose`` is the current (x, y, theta) in the
-    map frame, whose origin is the pose reached after the first tick.
+    map frame, whose origin is the robot's pose before the first tick (the first
+    keyframe, taken on the first tick, is held by a prior at its odometry pose).
     """
 
     def __init__(self, config: PoseGraphConfig | None = None) -> None:
@@ -52,7 +53,7 @@ class PoseGraphSLAM:
         # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
         self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
         self._scenes = SceneIndex(cfg.closure_min_travel, cfg.closure_max_candidates,
-                                  cfg.closure_candidate_window)
+                                  cfg.closure_candidate_window, cfg.closure_recent_tolerance)
         self._isam = make_isam2(cfg) if cfg.online else None
         self._graph = gtsam.NonlinearFactorGraph()  # every factor, for batch / GNC
         self._values = gtsam.Values()  # initial guesses (the estimate when offline)

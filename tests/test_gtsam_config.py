@@ -51,6 +51,9 @@ def test_config_is_a_dataclass_for_provenance():
         ({"gnc_inlier_probability": 1.0}, "gnc_inlier_probability"),
         ({"gnc_interval": 0}, "gnc_interval"),
         ({"isam2_extra_updates": -1}, "isam2_extra_updates"),
+        ({"isam2_relinearize_skip": 0}, "isam2_relinearize_skip"),
+        ({"isam2_bias_relinearize_threshold": -1.0}, "isam2_bias_relinearize_threshold"),
+        ({"closure_recent_tolerance": -0.1}, "closure_recent_tolerance"),
         ({"online": 1}, "online"),
         ({"yaw_bias_prior_sigma": 0.0}, "yaw_bias_prior_sigma"),
         ({"backend": "gnc", "estimate_yaw_bias": True}, "estimate_yaw_bias"),
@@ -62,6 +65,12 @@ def test_bad_config_raises_one_line_error_naming_the_field(kwargs, field):
     message = str(err.value)
     assert message.startswith(field + ":")
     assert "\n" not in message
+
+
+def test_relinearize_skip_default_depends_on_bias_estimation():
+    assert PoseGraphConfig().relinearize_skip == 10
+    assert PoseGraphConfig(estimate_yaw_bias=True).relinearize_skip == 1
+    assert PoseGraphConfig(estimate_yaw_bias=True, isam2_relinearize_skip=5).relinearize_skip == 5
 
 
 def test_numpy_numbers_are_accepted():

@@ -1,0 +1,170 @@
+"""Benchmark of the GTSAM pose-graph baseline (not a test).
+
+Measures, on simulator streams of the small_loop world (default false-positive
+rate, seed 0), with the default configuration (online iSAM2, robust closures):
+
+1. time per keyframe around 1,000 and 10,000 keyframes (loops closed every lap):
+   the iSAM2 ``update`` call alone and the whole ``step`` that took the keyframe
+   (factor construction, closure candidates, update, estimate), median and p95;
+   compared with one batch Levenberg-Marquardt solve of the same graph (what
+   re-optimising from scratch at every keyframe would cost);
+   the same with ``closure_recent_tolerance=0.25`` (closures kept local in time);
+2. the whole 15-minute small_loop stream (6,300 ticks) for every back-end, as
+   wall time, real-time factor and ratio to a pass that only integrates
+   odometry (no scene numbers, so no closures).
+
+Targets: median update <= 2 ms at 1,000 keyframes; 15-minute stream <= 5 s.
+The machine is shared and timings are noisy: ratios are printed beside times.
+
+Usage: python bench/bench_gtsam.py [--quick]   (--quick stops at 2,000 keyframes)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+
+import gtsam
+import numpy as np
+
+from baselines import PoseGraphConfig, PoseGraphSLAM
+from baselines.optimizers import batch_lm
+from worlds import simulate
+
+SECONDS_PER_KEYFRAME = 900.0 / 650.0  # small_loop: ~650 keyframes in 15 minutes
+
+
+class TimedISAM2:
+    """Proxy around gtsam.ISAM2 recording the wall time of every update call."""
+
+    def __init__(self, isam: gtsam.ISAM2) -> None:
+        self._isam = isam
+        self.times: list[float] = []
+
+    def update(self, *args):
+        t0 = time.perf_counter()
+        result = self._isam.update(*args)
+        self.times.append(time.perf_counter() - t0)
+        return result
+
+    def __getattr__(self, name):
+        return getattr(self._isam, name)
+
+
+def stats_ms(values) -> dict:
+    a = np.asarray(values) * 1e3
+    return {"median_ms": float(np.median(a)), "p95_ms": float(np.percentile(a, 95)), "n": int(a.size)}
+
+
+def keyframe_timing(targets: list[int], config: PoseGraphConfig, window: int = 200) -> dict:
+    """Per-keyframe costs in a window of keyframes ending at each target count."""
+    duration = (max(targets) + 50) * SECONDS_PER_KEYFRAME
+    log = simulate("small_loop", duration=duration, seed=0)
+    slam = PoseGraphSLAM(config)
+    # Keyframe 0 is made in the first step, so the proxy sees every later update.
+    slam.step(log.dt[0], log.v_trans[0], log.v_rot[0], log.scene_id[0])
+    proxy = TimedISAM2(slam._isam)
+    slam._isam = proxy
+    step_times: list[float] = []  # wall time of each step that took keyframe k (k >= 1)
+    update_times: list[float] = []  # iSAM2 update time(s) of that keyframe
+    out = {}
+    targets = sorted(targets)
+    for k in range(1, len(log.dt)):
+        before, n_updates = slam.num_keyframes, len(proxy.times)
+        t0 = time.perf_counter()
+        slam.step(log.dt[k], log.v_trans[k], log.v_rot[k], log.scene_id[k])
+        elapsed = time.perf_counter() - t0
+        if slam.num_keyframes > before:
+            step_times.append(elapsed)
+            update_times.append(sum(proxy.times[n_updates:]))
+            if targets and slam.num_keyframes == targets[0]:
+                target = targets.pop(0)
+                graph_size = slam._graph.size()
+                t0 = time.perf_counter()
+                batch_lm(slam._graph, proxy.calculateEstimate(), slam.config)
+                lm = time.perf_counter() - t0
+                upd = stats_ms(update_times[-window:])
+                out[target] = {
+                    "keyframes": target,
+                    "closures": int(len(slam.loop_closures)),
+                    "factors": int(graph_size),
+                    "isam2_update": upd,
+                    "keyframe_step": stats_ms(step_times[-window:]),
+                    "batch_lm_ms": lm * 1e3,
+                    "batch_lm_over_isam2_median": lm * 1e3 / upd["median_ms"],
+                }
+                print(json.dumps(out[target]), flush=True)
+                if not targets:
+                    break
+    return out
+
+
+def run_stream(log, config: PoseGraphConfig, scenes: bool = True) -> tuple[float, PoseGraphSLAM]:
+    slam = PoseGraphSLAM(config)
+    scene_ids = log.scene_id if scenes else np.full(len(log.dt), -1)
+    dt, v, w = log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist()
+    t0 = time.perf_counter()
+    for a, b, c, s in zip(dt, v, w, scene_ids.tolist()):
+        slam.step(a, b, c, s)
+    slam.finalize()
+    return time.perf_counter() - t0, slam
+
+
+def stream_timing(repeats: int = 3) -> dict:
+    log = simulate("small_loop", duration=900.0, seed=0)
+    odometry_only = min(run_stream(log, PoseGraphConfig(), scenes=False)[0] for _ in range(repeats))
+    out = {"ticks": len(log.dt), "odometry_only_s": odometry_only}
+    configs = {
+        "robust (default)": PoseGraphConfig(),
+        "gaussian": PoseGraphConfig(backend="gaussian"),
+        "gnc": PoseGraphConfig(backend="gnc"),
+        "robust + final batch LM": PoseGraphConfig(final_batch=True),
+        "robust + yaw bias": PoseGraphConfig(estimate_yaw_bias=True),
+    }
+    for name, cfg in configs.items():
+        times = []
+        for _ in range(repeats):
+            t, slam = run_stream(log, cfg)
+            times.append(t)
+        best = min(times)
+        out[name] = {
+            "seconds_min": best,
+            "seconds_median": float(np.median(times)),
+            "real_time_factor": 900.0 / best,
+            "over_odometry_only": best / odometry_only,
+            "keyframes": slam.num_keyframes,
+            "closures": int(len(slam.loop_closures)),
+        }
+        print(name, json.dumps(out[name]), flush=True)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="stop at 2,000 keyframes")
+    parser.add_argument("--json", help="write the results to this file")
+    args = parser.parse_args()
+    print(f"python {platform.python_version()}, {platform.machine()}")
+    stream = stream_timing()
+    targets = [1000, 2000] if args.quick else [1000, 10000]
+    print("per keyframe, default configuration:")
+    keyframes = keyframe_timing(targets, PoseGraphConfig())
+    print("per keyframe, time-local closures (closure_recent_tolerance=0.25):")
+    local = keyframe_timing(targets, PoseGraphConfig(closure_recent_tolerance=0.25))
+    result = {"stream_15min": stream, "per_keyframe": keyframes, "per_keyframe_time_local": local,
+              "targets": {"median_update_ms_at_1000": 2.0, "stream_15min_s": 5.0}}
+    k1 = keyframes[1000]["isam2_update"]["median_ms"]
+    s15 = stream["robust (default)"]["seconds_min"]
+    print(f"\nmedian iSAM2 update at 1,000 keyframes: {k1:.3f} ms (target <= 2 ms): "
+          f"{'met' if k1 <= 2.0 else 'MISSED'}")
+    print(f"15-minute small_loop stream, default config: {s15:.2f} s (target <= 5 s): "
+          f"{'met' if s15 <= 5.0 else 'MISSED'}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(result, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()
