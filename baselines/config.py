@@ -51,7 +51,8 @@ class PoseGraphConfig:
         previous tick's, not -1), provided at least ``keyframe_min_distance`` was
         travelled since the last keyframe.  A scene onset is where the robot
         crosses into a scene cell, so such keyframes sit near the same spot on
-        every visit and make loop closures more precise than mid-cell keyframes.
+        every visit and make loop closures more precise than mid-cell keyframes
+        (small_loop, 15 min, clean: ATE 0.088 m with, 0.098 m without).
     keyframe_min_distance:
         Minimum travel (m) for a scene-change keyframe (0.1 m, about 2 ticks at
         0.3 m/s, so that flicker at a cell border does not create a keyframe on
@@ -69,7 +70,7 @@ class PoseGraphConfig:
         through the adjoint of the remaining motion), which gives the full 3x3
         covariance of each odometry between-factor; for a straight 0.5 m interval
         at 0.3 m/s (about 12 ticks) that is sigma_x ~ 5 mm, sigma_theta ~ 5 mrad
-        and a lateral sigma_y ~ 1.4 mm that comes from the heading noise.
+        and a lateral sigma_y ~ 1.5 mm that comes from the heading noise.
     odom_sigma_lateral:
         Per-tick noise on a sideways velocity (m/s) the robot cannot have (it is
         non-holonomic).  Only a small floor that keeps the covariance of very
