@@ -1,0 +1,361 @@
+"""Rerun recording of a run (``recording.rrd``), written incrementally, tick by tick.
+
+Timelines: ``tick`` (sequence: step index k) and ``sim_time`` (duration: simulated seconds).
+
+Entity paths (world quantities in metres; the ``/world`` and ``/pose_cells`` subtrees carry a
+static mirror transform so that y points up in the viewer, the data themselves are unchanged):
+
+=============================  ===================================================================
+``world/walls``                wall segments (static)
+``world/ground_truth``         one segment per tick (previous -> current true position)
+``world/odometry``             one segment per tick, dead reckoning anchored at the first true pose
+``world/false_positives``      a point where a false-positive scene was reported (true position)
+``world/ratslam/experiences``  experience map nodes, re-logged every ``every_map`` ticks
+``world/ratslam/links``        experience map transitions (segments), re-logged with the nodes
+``world/gtsam/estimate``       GTSAM keyframe trajectory, re-logged every ``every_map`` ticks
+``world/gtsam/closures``       accepted GTSAM loop closures (segments), re-logged with it
+``pose_cells/grid``            4 x 4-cell grid lines (static)
+``pose_cells/activity``        x'y' projection (sum over θ') of the pose-cell activity, RGB image,
+                               every ``every_activity`` ticks; pixel (x', y') is cell (x', y')
+``pose_cells/peak``            peak trail in cell coordinates, one segment per tick; snaps
+                               (``ratslam.snapped``) drawn as thin red lines, wrap-arounds not drawn
+``metrics/ate/*``              ATE so far (m): odometry, experience_map, gtsam (with ground truth)
+``metrics/count/*``            experiences, links, snaps, keyframes, accepted loop closures
+``metrics/<key>``              anything passed to :meth:`Recorder.log_metrics`
+=============================  ===================================================================
+
+The experience map and the GTSAM estimate change under correction/optimisation, so they are
+logged whole, but only every ``every_map`` ticks (and at the last tick); trajectories are one
+segment per tick. With ground truth, both maps are drawn after SE(2) alignment
+(:func:`harness.metrics.ate`) of their poses onto the true poses at the ticks each
+experience was last active / each keyframe was taken, computed at each re-log; without ground
+truth they are drawn in their own frames. Measured with ``bench/bench_recorder.py`` (63,000
+ticks, 5,000 experiences, 60 x 60 x 36 grid) at the defaults: see that file's docstring.
+
+The file is written under a temporary name next to ``path`` and moved into place by
+:meth:`Recorder.close` (atomic); :meth:`Recorder.abort` (or an exception inside a ``with``
+block) removes it instead.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import uuid
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+
+from . import metrics
+from .blueprint import default_blueprint
+
+# Colours (RGBA) on the viewer's dark background.
+C_WALLS = (200, 200, 200, 255)
+C_GT = (240, 240, 240, 200)
+C_ODOM = (255, 150, 30, 220)
+C_EXP = (70, 160, 255, 255)
+C_LINK = (70, 160, 255, 140)
+C_GTSAM = (230, 60, 200, 230)
+C_CLOSURE = (230, 60, 200, 120)
+C_FP = (255, 40, 40, 255)
+C_PEAK = (0, 255, 255, 255)
+C_SNAP = (255, 50, 50, 255)
+C_GRID = (255, 255, 255, 40)
+
+_MIRROR_Y = rr.Transform3D(scale=[1.0, -1.0, 1.0])
+
+
+def _viridis_lut() -> np.ndarray:
+    from matplotlib import colormaps
+
+    return (colormaps["viridis"](np.linspace(0, 1, 256))[:, :3] * 255).astype(np.uint8)
+
+
+def _compose(R: np.ndarray, t: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    return poses[:, :2] @ R.T + t
+
+
+class _SegmentBuffer:
+    """Per-tick segments of one entity, sent in columns every ``capacity`` rows."""
+
+    def __init__(self, entity: str, capacity: int):
+        self.entity = entity
+        self.ticks = np.zeros(capacity, np.int64)
+        self.times = np.zeros(capacity, np.float64)
+        self.segs = np.zeros((capacity, 2, 2), np.float32)
+        self.colors = np.zeros((capacity, 4), np.uint8)
+        self.radii = np.zeros(capacity, np.float32)
+        self.n = 0
+
+    def add(self, tick, t, a, b, color, radius) -> bool:
+        i = self.n
+        self.ticks[i], self.times[i] = tick, t
+        self.segs[i, 0], self.segs[i, 1] = a, b
+        self.colors[i], self.radii[i] = color, radius
+        self.n += 1
+        return self.n == len(self.ticks)
+
+    def send(self, rec: rr.RecordingStream) -> None:
+        n = self.n
+        if n == 0:
+            return
+        # Copies: the SDK may keep referencing the arrays after send_columns returns (zero-copy),
+        # and these buffers are overwritten by the next rows.
+        rec.send_columns(
+            self.entity,
+            indexes=[rr.TimeColumn("tick", sequence=self.ticks[:n].copy()),
+                     rr.TimeColumn("sim_time", duration=self.times[:n].copy())],
+            columns=rr.LineStrips2D.columns(strips=self.segs[:n].copy(), colors=self.colors[:n].copy(),
+                                            radii=self.radii[:n].copy()),
+        )
+        self.n = 0
+
+
+class Recorder:
+    """Writes ``recording.rrd`` for one run; feed it every tick with :meth:`log_tick`.
+
+    Parameters
+    ----------
+    path:
+        Output ``.rrd`` file (written atomically on :meth:`close`).
+    walls:
+        ``(W, 2, 2)`` wall segments in metres, or None.
+    grid_shape:
+        Pose-cell grid ``(nx, ny, nθ)``.
+    every_activity:
+        Log the pose-cell activity image every this many ticks (default 35: 5 s at 7 Hz).
+    every_map:
+        Re-log the experience map, the GTSAM estimate and the live metrics every this many
+        ticks (default 70: 10 s at 7 Hz). See ``bench/bench_recorder.py`` for size and time.
+    flush_every:
+        Per-tick segments are buffered and sent in columns of this many rows (default 70).
+    align:
+        Draw the experience map and GTSAM estimate aligned to ground truth (when given).
+    world_bounds:
+        ``(x0, y0, x1, y1)`` framing the world panel; default: the walls' bounding box.
+    """
+
+    def __init__(self, path, walls=None, grid_shape=(60, 60, 36), *, every_activity: int = 35,
+                 every_map: int = 70, flush_every: int = 70, align: bool = True, world_bounds=None,
+                 application_id: str = "ratslam-harness", recording_id: str | None = None):
+        for name, v in (("every_activity", every_activity), ("every_map", every_map), ("flush_every", flush_every)):
+            if not (isinstance(v, (int, np.integer)) and v >= 1):
+                raise ValueError(f"{name} must be a positive integer number of ticks, got {v!r}")
+        if len(grid_shape) < 2 or min(int(g) for g in grid_shape[:2]) < 1:
+            raise ValueError(f"grid_shape must be (nx, ny[, nθ]) positive cell counts, got {grid_shape!r}")
+        self.path = Path(path)
+        self.grid_shape = tuple(int(g) for g in grid_shape)
+        self.every_activity, self.every_map, self.align = int(every_activity), int(every_map), bool(align)
+        walls = None if walls is None else np.asarray(walls, dtype=float).reshape(-1, 2, 2)
+        if world_bounds is None and walls is not None and len(walls):
+            pts = walls.reshape(-1, 2)
+            world_bounds = (*pts.min(axis=0), *pts.max(axis=0))
+        self._tmp = self.path.parent / f".{self.path.name}.partial-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        self.rec = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
+        self.rec.set_log_time_enabled(False)  # only the tick and sim_time timelines
+        self.rec.set_log_tick_enabled(False)
+        self.rec.save(self._tmp, default_blueprint=default_blueprint(self.grid_shape, world_bounds))
+        self._closed = False
+        self._lut = _viridis_lut()
+        self._buffers = {name: _SegmentBuffer(name, int(flush_every))
+                         for name in ("world/ground_truth", "world/odometry", "pose_cells/peak")}
+        cap = 1024
+        self._gt = np.full((cap, 3), np.nan)  # ground truth per tick, for alignment and live ATE
+        self._odom = np.full((cap, 3), np.nan)
+        self._prev = {}
+        self._anchor = None  # (R, t) odometry frame -> ground-truth frame, from the first tick
+        self._snaps = 0
+        self._last = None  # (tick, t, ratslam, gtsam) of the last log_tick, for close()
+        self._last_map_tick = None
+        self._static(walls)
+
+    # ------------------------------------------------------------------ static content
+    def _static(self, walls) -> None:
+        rec = self.rec
+        rec.log("world", _MIRROR_Y, static=True)
+        rec.log("pose_cells", _MIRROR_Y, static=True)
+        if walls is not None and len(walls):
+            rec.log("world/walls", rr.LineStrips2D(walls, colors=[C_WALLS], radii=[0.03]), static=True)
+        nx, ny = self.grid_shape[:2]
+        xs, ys = np.arange(0, nx + 1, 4, dtype=float), np.arange(0, ny + 1, 4, dtype=float)
+        lines = [[[x, 0], [x, ny]] for x in xs] + [[[0, y], [nx, y]] for y in ys]
+        rec.log("pose_cells/grid", rr.LineStrips2D(lines, colors=[C_GRID], radii=[0.04]), static=True)
+
+    # ------------------------------------------------------------------ per tick
+    def _grow(self, k: int) -> None:
+        if k >= len(self._gt):
+            n = max(k + 1, 2 * len(self._gt))
+            for name in ("_gt", "_odom"):
+                old = getattr(self, name)
+                new = np.full((n, 3), np.nan)
+                new[: len(old)] = old
+                setattr(self, name, new)
+
+    def _segment(self, name: str, tick: int, t: float, p, color, radius: float, draw: bool = True) -> None:
+        prev = self._prev.get(name)
+        self._prev[name] = p
+        if prev is None or not draw:
+            return
+        buf = self._buffers[name]
+        if buf.add(tick, t, prev, p, color, radius):
+            buf.send(self.rec)
+
+    def log_tick(self, tick: int, t: float, gt_xyt, odom_xyt, ratslam=None, gtsam=None,
+                 false_positive: bool = False) -> None:
+        """Record step ``tick`` (step index k, increasing) at simulated time ``t`` seconds.
+
+        ``gt_xyt``: true pose (x, y, θ) or None; ``odom_xyt``: dead-reckoned pose in its own
+        frame (anchored to the first true pose for display); ``ratslam``/``gtsam``: the systems
+        (read through the attributes of ``ratslam.RatSLAM`` / ``baselines.PoseGraphSLAM``) or
+        None; ``false_positive``: whether this tick's scene was a false positive.
+        """
+        if self._closed:
+            raise RuntimeError("Recorder.log_tick: the recording is closed")
+        k, t = int(tick), float(t)
+        self._grow(k)
+        odom = np.asarray(odom_xyt, dtype=float)
+        self._odom[k] = odom[:3]
+        if gt_xyt is not None:
+            gt = np.asarray(gt_xyt, dtype=float)
+            self._gt[k] = gt[:3]
+            if self._anchor is None:
+                dth = gt[2] - odom[2]
+                R = np.array([[math.cos(dth), -math.sin(dth)], [math.sin(dth), math.cos(dth)]])
+                self._anchor = (R, gt[:2] - R @ odom[:2])
+            self._segment("world/ground_truth", k, t, gt[:2], C_GT, 0.025)
+        R, tr = self._anchor if self._anchor is not None else (np.eye(2), np.zeros(2))
+        self._segment("world/odometry", k, t, R @ odom[:2] + tr, C_ODOM, 0.02)
+        if false_positive:
+            where = self._gt[k, :2] if gt_xyt is not None else R @ odom[:2] + tr
+            self.rec.set_time("tick", sequence=k)
+            self.rec.set_time("sim_time", duration=t)
+            self.rec.log("world/false_positives", rr.Points2D([where], colors=[C_FP], radii=[0.12]))
+        if ratslam is not None:
+            peak = np.asarray(ratslam.peak, dtype=float)[:2]
+            snapped = bool(ratslam.snapped)
+            self._snaps += snapped
+            prev = self._prev.get("pose_cells/peak")
+            jump = np.abs(peak - prev) if prev is not None else np.zeros(2)
+            wrapped = bool(np.any(jump > np.array(self.grid_shape[:2]) / 2))
+            self._segment("pose_cells/peak", k, t, peak + 0.5, C_SNAP if snapped else C_PEAK,
+                          0.06 if snapped else 0.18, draw=snapped or not wrapped)
+            if k % self.every_activity == 0:
+                self._log_activity(k, t, ratslam)
+        self._last = (k, t, ratslam, gtsam)
+        if k % self.every_map == 0:
+            self._log_maps(k, t, ratslam, gtsam)
+
+    def _log_activity(self, k: int, t: float, ratslam) -> None:
+        proj = np.asarray(ratslam.pose_cell_activity).sum(axis=2)  # (nx, ny)
+        top = proj.max()
+        level = (proj / top * 255).astype(np.uint8) if top > 0 else np.zeros(proj.shape, np.uint8)
+        self.rec.set_time("tick", sequence=k)
+        self.rec.set_time("sim_time", duration=t)
+        # image rows are y', columns x': pixel (x', y') covers cell (x', y')
+        self.rec.log("pose_cells/activity", rr.Image(self._lut[level.T], magnification_filter="Nearest",
+                                                     draw_order=-10.0))
+
+    def _aligned(self, poses: np.ndarray, ticks: np.ndarray):
+        """Poses moved into the ground-truth frame (and the ATE), or unchanged without ground truth."""
+        if self.align and len(poses) >= 2:
+            ref = self._gt[np.asarray(ticks, dtype=np.int64)]
+            ok = np.isfinite(ref[:, 0])
+            if ok.sum() >= 2:
+                res = metrics.ate(poses[ok], ref[ok])
+                return _compose(res.R, res.t, poses), res.rmse
+        return poses[:, :2], None
+
+    def _log_maps(self, k: int, t: float, ratslam, gtsam) -> None:
+        rec = self.rec
+        rec.set_time("tick", sequence=k)
+        rec.set_time("sim_time", duration=t)
+        self._last_map_tick = k
+        scalars = {"count/snaps": self._snaps}
+        if ratslam is not None:
+            poses = np.asarray(ratslam.experience_poses, dtype=float).reshape(-1, 3)
+            links = np.asarray(ratslam.links, dtype=np.int64).reshape(-1, 2)
+            if len(poses):
+                xy, err = self._aligned(poses, ratslam.experience_last_tick)
+                rec.log("world/ratslam/experiences", rr.Points2D(xy, colors=[C_EXP], radii=[0.07]))
+                rec.log("world/ratslam/links", rr.LineStrips2D(xy[links], colors=[C_LINK], radii=[0.025]))
+                if err is not None:
+                    scalars["ate/experience_map"] = err
+            scalars["count/experiences"] = len(poses)
+            scalars["count/links"] = len(links)
+        if gtsam is not None:
+            kf = np.asarray(gtsam.keyframe_poses, dtype=float).reshape(-1, 3)
+            if len(kf):
+                xy, err = self._aligned(kf, gtsam.keyframe_ticks)
+                rec.log("world/gtsam/estimate", rr.LineStrips2D([xy], colors=[C_GTSAM], radii=[0.03]))
+                pairs = np.asarray(gtsam.loop_closures, dtype=np.int64).reshape(-1, 2)
+                acc = np.asarray(gtsam.closure_accepted, dtype=bool).reshape(-1)
+                rec.log("world/gtsam/closures", rr.LineStrips2D(xy[pairs[acc]], colors=[C_CLOSURE], radii=[0.015]))
+                if err is not None:
+                    scalars["ate/gtsam"] = err
+                scalars["count/loop_closures_accepted"] = int(acc.sum())
+            scalars["count/keyframes"] = len(kf)
+        gt, od = self._gt[: k + 1], self._odom[: k + 1]
+        ok = np.flatnonzero(np.isfinite(gt[:, 0]) & np.isfinite(od[:, 0]))
+        if len(ok) >= 2:
+            ok = ok[:: max(1, len(ok) // 5000)]
+            scalars["ate/odometry"] = metrics.ate_rmse(od[ok], gt[ok])
+        for name, v in scalars.items():
+            rec.log(f"metrics/{name}", rr.Scalars([float(v)]))
+
+    # ------------------------------------------------------------------ metrics, closing
+    def log_metrics(self, tick: int, values: Mapping, t: float | None = None) -> None:
+        """Log numbers as ``metrics/<key>`` scalars at ``tick`` (nested mappings become
+        ``metrics/<key>/<subkey>``; non-numeric and non-finite values are skipped)."""
+        self.rec.set_time("tick", sequence=int(tick))
+        if t is not None:
+            self.rec.set_time("sim_time", duration=float(t))
+
+        def walk(prefix, d):
+            for key, v in d.items():
+                name = f"{prefix}/{key}"
+                if isinstance(v, Mapping):
+                    walk(name, v)
+                elif isinstance(v, (bool, int, float, np.integer, np.floating)) and math.isfinite(float(v)):
+                    self.rec.log(name, rr.Scalars([float(v)]))
+
+        walk("metrics", values)
+
+    def flush(self) -> None:
+        """Send buffered per-tick segments now."""
+        for buf in self._buffers.values():
+            buf.send(self.rec)
+
+    def close(self) -> Path:
+        """Log the final maps, finish the file and move it to ``path``. Returns ``path``."""
+        if self._closed:
+            return self.path
+        if self._last is not None and self._last_map_tick != self._last[0]:
+            k, t, rs, pg = self._last
+            if rs is not None:
+                self._log_activity(k, t, rs)
+            self._log_maps(k, t, rs, pg)
+        self.flush()
+        self.rec.flush()
+        self.rec.disconnect()
+        self._closed = True
+        os.replace(self._tmp, self.path)
+        return self.path
+
+    def abort(self) -> None:
+        """Stop recording and delete the partial file."""
+        if not self._closed:
+            self._closed = True
+            self.rec.disconnect()
+            Path(self._tmp).unlink(missing_ok=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+        return False
