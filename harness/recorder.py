@@ -13,14 +13,15 @@ static mirror transform so that y points up in the viewer, the data themselves a
 ``world/ratslam/experiences``  experience map nodes, re-logged every ``every_map`` ticks
 ``world/ratslam/links``        experience map transitions (segments), re-logged with the nodes
 ``world/gtsam/estimate``       GTSAM keyframe trajectory, re-logged every ``every_map`` ticks
-``world/gtsam/closures``       accepted GTSAM loop closures (segments), re-logged with it
+``world/gtsam/closures``       accepted GTSAM loop closures (segments), every ``every_closures`` ticks
 ``pose_cells/grid``            4 x 4-cell grid lines (static)
 ``pose_cells/activity``        x'y' projection (sum over θ') of the pose-cell activity, RGB image,
                                every ``every_activity`` ticks; pixel (x', y') is cell (x', y')
 ``pose_cells/peak``            peak trail in cell coordinates, one segment per tick; snaps
                                (``ratslam.snapped``) drawn as thin red lines, wrap-arounds not drawn
 ``metrics/ate/*``              ATE so far (m): odometry, experience_map, gtsam (with ground truth)
-``metrics/count/*``            experiences, links, snaps, keyframes, accepted loop closures
+``metrics/count/*``            experiences, links, snaps, keyframes (every ``every_map`` ticks),
+                               accepted loop closures (every ``every_closures`` ticks)
 ``metrics/<key>``              anything passed to :meth:`Recorder.log_metrics`
 =============================  ===================================================================
 
@@ -46,7 +47,10 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import rerun as rr
+from rerun.components import LineStrip2DBatch
+from rerun.encodings import Vec2DBatch
 
 from . import metrics
 from .blueprint import default_blueprint
@@ -75,6 +79,17 @@ def _viridis_lut() -> np.ndarray:
 
 def _compose(R: np.ndarray, t: np.ndarray, poses: np.ndarray) -> np.ndarray:
     return poses[:, :2] @ R.T + t
+
+
+def _segments(segs: np.ndarray) -> pa.Array:
+    """Line strips of two points each, ``(n, 2, 2)``, as the Arrow array rerun stores.
+
+    Built in one go: the SDK's own conversion walks the strips in Python (measured 40x slower
+    for 6,500 transitions)."""
+    segs = np.array(segs, dtype=np.float32, copy=True).reshape(-1, 2, 2)  # never alias the caller's buffer
+    offsets = pa.array(np.arange(0, 2 * len(segs) + 1, 2, dtype=np.int32))
+    return pa.ListArray.from_arrays(offsets, Vec2DBatch(segs.reshape(-1, 2)).as_arrow_array(),
+                                    type=LineStrip2DBatch._ARROW_DATATYPE)
 
 
 class _SegmentBuffer:
@@ -107,7 +122,7 @@ class _SegmentBuffer:
             self.entity,
             indexes=[rr.TimeColumn("tick", sequence=self.ticks[:n].copy()),
                      rr.TimeColumn("sim_time", duration=self.times[:n].copy())],
-            columns=rr.LineStrips2D.columns(strips=self.segs[:n].copy(), colors=self.colors[:n].copy(),
+            columns=rr.LineStrips2D.columns(strips=_segments(self.segs[:n]), colors=self.colors[:n].copy(),
                                             radii=self.radii[:n].copy()),
         )
         self.n = 0
@@ -129,6 +144,9 @@ class Recorder:
     every_map:
         Re-log the experience map, the GTSAM estimate and the live metrics every this many
         ticks (default 70: 10 s at 7 Hz). See ``bench/bench_recorder.py`` for size and time.
+    every_closures:
+        Re-log GTSAM's accepted loop closures every this many ticks (default 700: 100 s at 7 Hz;
+        reading the acceptance flags costs the baseline a pass over all its closures).
     flush_every:
         Per-tick segments are buffered and sent in columns of this many rows (default 70).
     align:
@@ -138,9 +156,11 @@ class Recorder:
     """
 
     def __init__(self, path, walls=None, grid_shape=(60, 60, 36), *, every_activity: int = 35,
-                 every_map: int = 70, flush_every: int = 70, align: bool = True, world_bounds=None,
+                 every_map: int = 70, every_closures: int = 700, flush_every: int = 70, align: bool = True,
+                 world_bounds=None,
                  application_id: str = "ratslam-harness", recording_id: str | None = None):
-        for name, v in (("every_activity", every_activity), ("every_map", every_map), ("flush_every", flush_every)):
+        for name, v in (("every_activity", every_activity), ("every_map", every_map),
+                        ("every_closures", every_closures), ("flush_every", flush_every)):
             if not (isinstance(v, (int, np.integer)) and v >= 1):
                 raise ValueError(f"{name} must be a positive integer number of ticks, got {v!r}")
         if len(grid_shape) < 2 or min(int(g) for g in grid_shape[:2]) < 1:
@@ -148,6 +168,7 @@ class Recorder:
         self.path = Path(path)
         self.grid_shape = tuple(int(g) for g in grid_shape)
         self.every_activity, self.every_map, self.align = int(every_activity), int(every_map), bool(align)
+        self.every_closures = int(every_closures)
         walls = None if walls is None else np.asarray(walls, dtype=float).reshape(-1, 2, 2)
         if world_bounds is None and walls is not None and len(walls):
             pts = walls.reshape(-1, 2)
@@ -193,13 +214,14 @@ class Recorder:
                 new[: len(old)] = old
                 setattr(self, name, new)
 
-    def _segment(self, name: str, tick: int, t: float, p, color, radius: float, draw: bool = True) -> None:
+    def _segment(self, name: str, tick: int, t: float, x: float, y: float, color, radius: float,
+                 draw: bool = True) -> None:
         prev = self._prev.get(name)
-        self._prev[name] = p
+        self._prev[name] = (x, y)
         if prev is None or not draw:
             return
         buf = self._buffers[name]
-        if buf.add(tick, t, prev, p, color, radius):
+        if buf.add(tick, t, prev, (x, y), color, radius):
             buf.send(self.rec)
 
     def log_tick(self, tick: int, t: float, gt_xyt, odom_xyt, ratslam=None, gtsam=None,
@@ -214,32 +236,35 @@ class Recorder:
         if self._closed:
             raise RuntimeError("Recorder.log_tick: the recording is closed")
         k, t = int(tick), float(t)
-        self._grow(k)
-        odom = np.asarray(odom_xyt, dtype=float)
-        self._odom[k] = odom[:3]
+        if k >= len(self._gt):
+            self._grow(k)
+        ox, oy, oth = (float(v) for v in odom_xyt[:3])
+        self._odom[k] = (ox, oy, oth)
         if gt_xyt is not None:
-            gt = np.asarray(gt_xyt, dtype=float)
-            self._gt[k] = gt[:3]
-            if self._anchor is None:
-                dth = gt[2] - odom[2]
-                R = np.array([[math.cos(dth), -math.sin(dth)], [math.sin(dth), math.cos(dth)]])
-                self._anchor = (R, gt[:2] - R @ odom[:2])
-            self._segment("world/ground_truth", k, t, gt[:2], C_GT, 0.025)
-        R, tr = self._anchor if self._anchor is not None else (np.eye(2), np.zeros(2))
-        self._segment("world/odometry", k, t, R @ odom[:2] + tr, C_ODOM, 0.02)
+            gx, gy, gth = (float(v) for v in gt_xyt[:3])
+            self._gt[k] = (gx, gy, gth)
+            if self._anchor is None:  # odometry frame -> world: make the first poses coincide
+                dth = gth - oth
+                c, s = math.cos(dth), math.sin(dth)
+                self._anchor = (c, s, gx - (c * ox - s * oy), gy - (s * ox + c * oy))
+            self._segment("world/ground_truth", k, t, gx, gy, C_GT, 0.025)
+        c, s, ax, ay = self._anchor if self._anchor is not None else (1.0, 0.0, 0.0, 0.0)
+        wx, wy = c * ox - s * oy + ax, s * ox + c * oy + ay
+        self._segment("world/odometry", k, t, wx, wy, C_ODOM, 0.02)
         if false_positive:
-            where = self._gt[k, :2] if gt_xyt is not None else R @ odom[:2] + tr
+            where = (gx, gy) if gt_xyt is not None else (wx, wy)
             self.rec.set_time("tick", sequence=k)
             self.rec.set_time("sim_time", duration=t)
             self.rec.log("world/false_positives", rr.Points2D([where], colors=[C_FP], radii=[0.12]))
         if ratslam is not None:
-            peak = np.asarray(ratslam.peak, dtype=float)[:2]
+            peak = ratslam.peak
+            px, py = float(peak[0]) + 0.5, float(peak[1]) + 0.5  # cell i covers [i, i + 1) in the image
             snapped = bool(ratslam.snapped)
             self._snaps += snapped
             prev = self._prev.get("pose_cells/peak")
-            jump = np.abs(peak - prev) if prev is not None else np.zeros(2)
-            wrapped = bool(np.any(jump > np.array(self.grid_shape[:2]) / 2))
-            self._segment("pose_cells/peak", k, t, peak + 0.5, C_SNAP if snapped else C_PEAK,
+            nx, ny = self.grid_shape[0], self.grid_shape[1]
+            wrapped = prev is not None and (abs(px - prev[0]) > nx / 2 or abs(py - prev[1]) > ny / 2)
+            self._segment("pose_cells/peak", k, t, px, py, C_SNAP if snapped else C_PEAK,
                           0.06 if snapped else 0.18, draw=snapped or not wrapped)
             if k % self.every_activity == 0:
                 self._log_activity(k, t, ratslam)
@@ -267,7 +292,7 @@ class Recorder:
                 return _compose(res.R, res.t, poses), res.rmse
         return poses[:, :2], None
 
-    def _log_maps(self, k: int, t: float, ratslam, gtsam) -> None:
+    def _log_maps(self, k: int, t: float, ratslam, gtsam, final: bool = False) -> None:
         rec = self.rec
         rec.set_time("tick", sequence=k)
         rec.set_time("sim_time", duration=t)
@@ -279,7 +304,7 @@ class Recorder:
             if len(poses):
                 xy, err = self._aligned(poses, ratslam.experience_last_tick)
                 rec.log("world/ratslam/experiences", rr.Points2D(xy, colors=[C_EXP], radii=[0.07]))
-                rec.log("world/ratslam/links", rr.LineStrips2D(xy[links], colors=[C_LINK], radii=[0.025]))
+                rec.log("world/ratslam/links", rr.LineStrips2D(_segments(xy[links]), colors=[C_LINK], radii=[0.025]))
                 if err is not None:
                     scalars["ate/experience_map"] = err
             scalars["count/experiences"] = len(poses)
@@ -289,12 +314,14 @@ class Recorder:
             if len(kf):
                 xy, err = self._aligned(kf, gtsam.keyframe_ticks)
                 rec.log("world/gtsam/estimate", rr.LineStrips2D([xy], colors=[C_GTSAM], radii=[0.03]))
-                pairs = np.asarray(gtsam.loop_closures, dtype=np.int64).reshape(-1, 2)
-                acc = np.asarray(gtsam.closure_accepted, dtype=bool).reshape(-1)
-                rec.log("world/gtsam/closures", rr.LineStrips2D(xy[pairs[acc]], colors=[C_CLOSURE], radii=[0.015]))
                 if err is not None:
                     scalars["ate/gtsam"] = err
-                scalars["count/loop_closures_accepted"] = int(acc.sum())
+                if final or k % self.every_closures == 0:
+                    pairs = np.asarray(gtsam.loop_closures, dtype=np.int64).reshape(-1, 2)
+                    acc = np.asarray(gtsam.closure_accepted, dtype=bool).reshape(-1)
+                    rec.log("world/gtsam/closures", rr.LineStrips2D(_segments(xy[pairs[acc]]), colors=[C_CLOSURE],
+                                                                    radii=[0.015]))
+                    scalars["count/loop_closures_accepted"] = int(acc.sum())
             scalars["count/keyframes"] = len(kf)
         gt, od = self._gt[: k + 1], self._odom[: k + 1]
         ok = np.flatnonzero(np.isfinite(gt[:, 0]) & np.isfinite(od[:, 0]))
@@ -335,7 +362,7 @@ class Recorder:
             k, t, rs, pg = self._last
             if rs is not None:
                 self._log_activity(k, t, rs)
-            self._log_maps(k, t, rs, pg)
+            self._log_maps(k, t, rs, pg, final=True)
         self.flush()
         self.rec.flush()
         self.rec.disconnect()
@@ -359,3 +386,41 @@ class Recorder:
         else:
             self.abort()
         return False
+
+
+class StreamRecorder:
+    """A :class:`Recorder` fed from an observation log, for the runner's per-tick callback.
+
+    ``on_tick(k, ratslam, gtsam)`` logs tick k with the log's time, ground truth (if any),
+    dead-reckoned odometry and false-positive flag; ``close()`` finishes the file.
+    """
+
+    def __init__(self, recorder: Recorder, t, odometry, ground_truth=None, false_positive=None):
+        self.recorder = recorder
+        self._t = np.asarray(t, dtype=float)
+        self._odom = np.asarray(odometry, dtype=float)
+        self._gt = None if ground_truth is None else np.asarray(ground_truth, dtype=float)
+        self._fp = None if false_positive is None else np.asarray(false_positive, dtype=bool)
+
+    def on_tick(self, k: int, ratslam, gtsam) -> None:
+        self.recorder.log_tick(k, self._t[k], None if self._gt is None else self._gt[k], self._odom[k],
+                               ratslam, gtsam, bool(self._fp[k]) if self._fp is not None else False)
+
+    def close(self) -> Path:
+        return self.recorder.close()
+
+    def abort(self) -> None:
+        self.recorder.abort()
+
+
+def recorder_factory(run_dir, world, log, ratslam_config, **options) -> StreamRecorder:
+    """``run_dir/recording.rrd`` for a run of ``log`` (an ``ObservationLog``) in ``world`` (a
+    ``World`` or None) with RatSLAM configured by ``ratslam_config``; ``options`` go to
+    :class:`Recorder`. Odometry is dead-reckoned from the log as the runner does."""
+    from .runner import dead_reckon
+
+    rec = Recorder(Path(run_dir) / "recording.rrd", None if world is None else world.walls,
+                   tuple(ratslam_config.shape), **options)
+    gt = log.ground_truth() if log.has_ground_truth else None
+    fp = log.false_positive if log.has_ground_truth else None
+    return StreamRecorder(rec, log.t, dead_reckon(log), gt, fp)

@@ -248,3 +248,54 @@ def test_bad_config_is_one_line_value_error(tmp_path):
     with pytest.raises(ValueError, match="every_map"):
         Recorder(tmp_path / "r.rrd", None, GRID, every_map=0)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def real_run(tmp_path_factory):
+    """60 s of the small loop through both real systems, recorded by the runner's callback."""
+    from harness.recorder import recorder_factory
+    from harness.runner import run_stream
+    from ratslam import RatSLAMConfig
+    from worlds import load_world, simulate
+
+    world = load_world("small_loop")
+    log = simulate(world, duration=60.0, seed=0, fp_rate=0.01)
+    out = tmp_path_factory.mktemp("real")
+    cfg = RatSLAMConfig()
+    stream = recorder_factory(out, world, log, cfg)
+    res = run_stream(log, cfg, on_tick=stream.on_tick)
+    path = stream.close()
+    return path, log, res
+
+
+def test_recording_of_a_real_run(real_run):
+    """The runner's callback records every tick of a simulated run; the final experience map
+    in the file has as many nodes as the system's map."""
+    path, log, res = real_run
+    assert path.name == "recording.rrd" and path.exists()
+    by_entity = {}
+    for c in RrdReader(path).store().stream().to_chunks():
+        by_entity.setdefault(c.entity_path, []).append(c)
+    assert rows(by_entity, "/world/ground_truth") == len(log) - 1
+    assert rows(by_entity, "/world/false_positives") == int(log.false_positive.sum())
+    _, pts = column(by_entity, "/world/ratslam/experiences", "Points2D:positions")
+    assert len(pts[-1]) == len(res.ratslam.experience_poses)
+    _, snaps = column(by_entity, "/metrics/count/snaps", "Scalars:scalars")
+    assert snaps[-1][0] == int(res.snapped.sum())
+
+
+def test_screenshot_shows_every_panel(real_run, tmp_path):
+    """Opened headless in the viewer, the default blueprint shows its four views without a
+    reported problem, at the last tick."""
+    from harness.screenshot import ScreenshotError, screenshot
+
+    path, log, _ = real_run
+    try:
+        out = screenshot(path, tmp_path / "shot.png", size="1280x720", timeout=60)
+    except ScreenshotError as e:
+        if "Vulkan" in str(e):
+            pytest.skip(str(e))
+        raise
+    assert out["tick"] == len(log) - 1
+    assert len(out["views"]) == 4 and all(not problems for problems in out["views"].values()), out["views"]
+    assert out["png"].stat().st_size > 20_000
