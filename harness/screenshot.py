@@ -4,7 +4,8 @@
 
 Starts the viewer of the installed rerun-sdk in headless mode (``rerun --headless``: no window,
 no X server), opens the file, waits until it has loaded, moves the time cursor to tick ``K``
-(default: the last tick) and saves a PNG of the whole viewer. The viewer renders with Vulkan;
+(default: the last tick) and saves a PNG of the whole viewer once two consecutive screenshots
+agree (the viewer fetches data lazily after the cursor moves). The viewer renders with Vulkan;
 on a machine without a GPU, Mesa's software driver is needed (Debian:
 ``apt-get install -y mesa-vulkan-drivers``). The viewer also runs under Xvfb
 (``apt-get install -y xvfb``; see ``../shared/DESIGN.md``), but the headless mode is used here
@@ -62,7 +63,7 @@ def screenshot(rrd_path, png_path, *, tick: int | None = None, size: str = "1600
 
     ``tick``: time cursor on the ``tick`` timeline (None: the last tick); ``size``: viewer size in
     logical points; ``timeout``: seconds to wait for the viewer and the data; ``settle``: seconds
-    to let the viewer fetch and draw the data at the chosen time. Returns ``{"png": path,
+    between the screenshots compared to decide that the view is complete. Returns ``{"png": path,
     "tick": tick, "views": {view name: [problems reported by the view]}}``.
     """
     from rerun.experimental import ViewerClient
@@ -113,9 +114,20 @@ def screenshot(rrd_path, png_path, *, tick: int | None = None, size: str = "1600
             time.sleep(0.25)
         at = end if tick is None else int(tick)
         client.set_time("tick", sequence=at, play_state="paused")
-        time.sleep(settle)
         png_path.parent.mkdir(parents=True, exist_ok=True)
-        client.save_screenshot(str(png_path))
+        # The viewer fetches the chunks a view needs after the time cursor moves: shoot until two
+        # consecutive screenshots are identical (a large recording takes several seconds).
+        previous, shots = None, 0
+        while True:
+            time.sleep(settle)
+            client.save_screenshot(str(png_path))
+            shots += 1
+            current = png_path.read_bytes()
+            if current == previous:
+                break
+            if time.monotonic() > deadline:
+                raise failed(f"the view did not settle in time ({shots} screenshots)")
+            previous = current
         views = {v.name: [f"{r.severity}: {r.summary}" for r in v.reports] for v in client.get_state().views}
         if proc.poll() is not None or not png_path.exists():
             raise failed("viewer crashed while drawing")
