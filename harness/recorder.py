@@ -30,8 +30,12 @@ logged whole, but only every ``every_map`` ticks (and at the last tick); traject
 segment per tick. With ground truth, both maps are drawn after SE(2) alignment
 (:func:`harness.metrics.ate`) of their poses onto the true poses at the ticks each
 experience was last active / each keyframe was taken, computed at each re-log; without ground
-truth they are drawn in their own frames. Measured with ``bench/bench_recorder.py`` (63,000
-ticks, 5,000 experiences, 60 x 60 x 36 grid) at the defaults: see that file's docstring.
+truth they are drawn in their own frames.
+
+Size and time at the defaults, measured with ``bench/bench_recorder.py``: a synthetic 2.5-h run
+(63,000 ticks, 5,000 experiences, 6,000 keyframes, 60 x 60 x 36 grid) gives 92 MB and 49 µs per
+tick; the real Fig 4 run (office_floor, 9,000 s) 69 MB and 7.9 % of the run's wall time
+(targets: <= 300 MB, <= 25 %).
 
 The file is written under a temporary name next to ``path`` and moved into place by
 :meth:`Recorder.close` (atomic); :meth:`Recorder.abort` (or an exception inside a ``with``
