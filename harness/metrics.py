@@ -33,7 +33,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
 __all__ = [
-    "Alignment", "align_se2", "ate", "ate_rmse", "rpe", "wrap_angle", "wrap_cells",
+    "Alignment", "align_se2", "apply_se2", "ate", "ate_rmse", "rpe", "wrap_angle", "wrap_cells",
     "snap_mask", "snap_count", "MultipleRepresentations", "multiple_representations",
     "pose_cell_multiple_representations", "HashCollisions", "hash_collisions",
     "loop_closure_pr", "realtime_factor", "write_tum", "read_tum",

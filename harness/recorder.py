@@ -81,10 +81,6 @@ def _viridis_lut() -> np.ndarray:
     return (colormaps["viridis"](np.linspace(0, 1, 256))[:, :3] * 255).astype(np.uint8)
 
 
-def _compose(R: np.ndarray, t: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    return poses[:, :2] @ R.T + t
-
-
 def _segments(segs: np.ndarray) -> pa.Array:
     """Line strips of two points each, ``(n, 2, 2)``, as the Arrow array rerun stores.
 
@@ -157,12 +153,14 @@ class Recorder:
         Draw the experience map and GTSAM estimate aligned to ground truth (when given).
     world_bounds:
         ``(x0, y0, x1, y1)`` framing the world panel; default: the walls' bounding box.
+    application_id, recording_id:
+        Rerun identifiers (default recording id: random). The file's content is determined by
+        the inputs; its bytes are not (rerun's chunk and row ids are time-based).
     """
 
     def __init__(self, path, walls=None, grid_shape=(60, 60, 36), *, every_activity: int = 35,
                  every_map: int = 70, every_closures: int = 700, flush_every: int = 70, align: bool = True,
-                 world_bounds=None,
-                 application_id: str = "ratslam-harness", recording_id: str | None = None):
+                 world_bounds=None, application_id: str = "ratslam-harness", recording_id: str | None = None):
         for name, v in (("every_activity", every_activity), ("every_map", every_map),
                         ("every_closures", every_closures), ("flush_every", flush_every)):
             if not (isinstance(v, (int, np.integer)) and v >= 1):
@@ -190,7 +188,7 @@ class Recorder:
         self._gt = np.full((cap, 3), np.nan)  # ground truth per tick, for alignment and live ATE
         self._odom = np.full((cap, 3), np.nan)
         self._prev = {}
-        self._anchor = None  # (R, t) odometry frame -> ground-truth frame, from the first tick
+        self._anchor = None  # (cos, sin, tx, ty): odometry frame -> ground-truth frame, from the first tick
         self._snaps = 0
         self._last = None  # (tick, t, ratslam, gtsam) of the last log_tick, for close()
         self._last_map_tick = None
@@ -293,7 +291,7 @@ class Recorder:
             ok = np.isfinite(ref[:, 0])
             if ok.sum() >= 2:
                 res = metrics.ate(poses[ok], ref[ok])
-                return _compose(res.R, res.t, poses), res.rmse
+                return res.apply(poses[:, :2]), res.rmse
         return poses[:, :2], None
 
     def _log_maps(self, k: int, t: float, ratslam, gtsam, final: bool = False) -> None:
