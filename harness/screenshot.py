@@ -22,6 +22,7 @@ import argparse
 import glob
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -75,8 +76,9 @@ def screenshot(rrd_path, png_path, *, tick: int | None = None, size: str = "1600
     exe = _rerun_executable()
     port = _free_port()
     log = tempfile.TemporaryFile()
+    # Own session: the ``rerun`` script starts the viewer binary as a child, both must be stopped.
     proc = subprocess.Popen([exe, "--headless", "--hide-welcome-screen", "--port", str(port), "--window-size", size],
-                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True)
     deadline = time.monotonic() + timeout
 
     def failed(what: str) -> ScreenshotError:
@@ -133,14 +135,26 @@ def screenshot(rrd_path, png_path, *, tick: int | None = None, size: str = "1600
             raise failed("viewer crashed while drawing")
         return {"png": png_path, "tick": at, "views": views}
     finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        _stop(proc)
         log.close()
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    """Stop the viewer's process group (the script and the binary it started): SIGTERM, then
+    SIGKILL if anything is left after 10 s."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            return
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline:
+            proc.poll()  # reap the script, the group's leader
+            try:
+                os.killpg(proc.pid, 0)
+            except ProcessLookupError:
+                return
+            time.sleep(0.1)
 
 
 def main(argv=None) -> int:

@@ -299,3 +299,18 @@ def test_screenshot_shows_every_panel(real_run, tmp_path):
     assert out["tick"] == len(log) - 1
     assert len(out["views"]) == 4 and all(not problems for problems in out["views"].values()), out["views"]
     assert out["png"].stat().st_size > 20_000
+
+
+def test_screenshot_errors_are_one_line(tmp_path, monkeypatch):
+    import harness.screenshot as shot
+
+    with pytest.raises(shot.ScreenshotError, match="no such recording"):
+        shot.screenshot(tmp_path / "missing.rrd", tmp_path / "x.png")
+    (tmp_path / "r.rrd").write_bytes(b"")
+    monkeypatch.setattr(shot, "VULKAN_ICD_DIRS", (str(tmp_path / "none"),))
+    monkeypatch.delenv("VK_ICD_FILENAMES", raising=False)
+    monkeypatch.delenv("VK_DRIVER_FILES", raising=False)
+    assert shot.main([str(tmp_path / "r.rrd"), str(tmp_path / "x.png")]) == 1
+    with pytest.raises(shot.ScreenshotError, match="mesa-vulkan-drivers") as e:
+        shot.screenshot(tmp_path / "r.rrd", tmp_path / "x.png")
+    assert "\n" not in str(e.value)
