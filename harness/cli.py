@@ -48,7 +48,7 @@ def _cmd_simulate(args) -> None:
 def _cmd_run(args) -> None:
     from .figure_run import run_figure
     from .figures import get_figure
-    from .recording import recorder_factory
+    from .recorder import recorder_factory
 
     get_figure(args.figure)  # unknown names fail before anything starts
     out = run_figure(args.figure, out=args.out, seed=args.seed, duration=args.duration,
@@ -58,7 +58,7 @@ def _cmd_run(args) -> None:
 
 def _cmd_replay(args) -> None:
     from .figure_run import replay
-    from .recording import recorder_factory
+    from .recorder import recorder_factory
 
     out = replay(args.log, args.out, show_progress=not args.quiet,
                  recorder_factory=None if args.no_recording else recorder_factory)
