@@ -32,6 +32,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
+from worlds.observation_log import publish
+
 __all__ = [
     "Alignment", "align_se2", "apply_se2", "ate", "ate_rmse", "rpe", "wrap_angle", "wrap_cells",
     "snap_mask", "snap_count", "MultipleRepresentations", "multiple_representations",
@@ -387,7 +389,7 @@ def write_tum(path, t, x, y, theta) -> Path:
         with os.fdopen(fd, "w") as fh:
             fh.write("# timestamp x y z qx qy qz qw\n")
             np.savetxt(fh, data, fmt=["%.6f", "%.6f", "%.6f", "%.0f", "%.0f", "%.0f", "%.9f", "%.9f"])
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -158,6 +158,15 @@ def _check_semantics(path, v):
             fail(bad[0], "false_positive", f"must be 0 or 1, got {v['false_positive'][bad[0]]}")
 
 
+def publish(tmp, path) -> None:
+    """Move a finished temporary file onto ``path`` with the usual permissions (``mkstemp``
+    creates files readable only by their owner)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
+    os.replace(tmp, path)
+
+
 def atomic_write_text(path, text: str) -> Path:
     """Write ``text`` to ``path`` via a temporary file in the same directory and a rename."""
     path = Path(path)
@@ -166,7 +175,7 @@ def atomic_write_text(path, text: str) -> Path:
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
