@@ -73,8 +73,16 @@ def _configs(fig: Figure, variant: Variant) -> tuple[RatSLAMConfig, PoseGraphCon
     return (RatSLAMConfig(nx=nx, ny=ny, n_theta=nth, pi_bias_deg_s=variant.pi_bias), PoseGraphConfig())
 
 
+def _variant_world(world: World, variant: Variant) -> World:
+    """The world a variant runs in: as loaded, or with its look-alike regions showing their own scenes."""
+    if variant.lookalikes or not world.scenes.lookalikes:
+        return world
+    return dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+
+
 def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, duration: float, seed: int,
                  show_progress: bool, recorder_factory=None) -> dict:
+    world = _variant_world(world, variant)
     log = simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
     rs_cfg, pg_cfg = _configs(fig, variant)
     progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress)
@@ -93,9 +101,16 @@ def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, dur
 
 
 def run_figure(name: str, out=None, seed: int | None = None, duration: float | None = None,
-               show_progress: bool = True, recorder_factory=None) -> Path:
-    """Run every variant of figure ``name`` into ``out`` (default ``reports/<name>``)."""
+               show_progress: bool = True, recorder_factory=None, variants: tuple[str, ...] | None = None) -> Path:
+    """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
+    always runs) into ``out`` (default ``reports/<name>``)."""
     fig = get_figure(name)
+    if variants is not None:
+        unknown = set(variants) - {v.name for v in fig.variants}
+        if unknown:
+            raise ValueError(f"{name}: unknown variant(s) {sorted(unknown)} (known: {[v.name for v in fig.variants]})")
+        fig = dataclasses.replace(fig, variants=tuple(v for i, v in enumerate(fig.variants)
+                                                      if i == 0 or v.name in variants))
     world = load_world(fig.world)
     seed = fig.seed if seed is None else int(seed)
     duration = fig.duration if duration is None else float(duration)

@@ -15,12 +15,13 @@ from typing import Callable
 
 @dataclass(frozen=True)
 class Variant:
-    """One run of a figure: where the odometric bias goes."""
+    """One run of a figure: where the odometric bias goes, and whether look-alike places look alike."""
 
     name: str
     label: str
     odometric_bias: float = 0.0  # deg/s added to the logged odometry, seen by both systems
     pi_bias: float = 0.0  # deg/s added to RatSLAM's pose-cell path integration only
+    lookalikes: bool = True  # False: the world's look-alike regions show their own scene numbers
 
 
 @dataclass(frozen=True)
@@ -145,6 +146,8 @@ def _register(fig: Figure) -> None:
 _register(Figure(
     name="fig4", title="Office floor, 2.5 h exploration", world="office_floor", duration=9000.0,
     grid=(40, 40, 36),
+    variants=(Variant("default", "rooms B and C show their own scenes", lookalikes=False),
+              Variant("lookalike_rooms", "rooms B and C show the same scenes (the world file as shipped)")),
     claims=(
         count_at_least("default", "snaps", 1, "The pose-cell peak snaps when familiar scenes are seen.", "snaps"),
         count_at_least("default", "multiple_representations", 1,
