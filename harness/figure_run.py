@@ -70,7 +70,8 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
 
 def _configs(fig: Figure, variant: Variant) -> tuple[RatSLAMConfig, PoseGraphConfig]:
     nx, ny, nth = fig.grid
-    return (RatSLAMConfig(nx=nx, ny=ny, n_theta=nth, pi_bias_deg_s=variant.pi_bias), PoseGraphConfig())
+    return (RatSLAMConfig(nx=nx, ny=ny, n_theta=nth, pi_bias_deg_s=variant.pi_bias),
+            PoseGraphConfig(estimate_yaw_bias=variant.gtsam_yaw_bias))
 
 
 def _variant_world(world: World, variant: Variant) -> World:

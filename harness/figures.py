@@ -22,6 +22,7 @@ class Variant:
     odometric_bias: float = 0.0  # deg/s added to the logged odometry, seen by both systems
     pi_bias: float = 0.0  # deg/s added to RatSLAM's pose-cell path integration only
     lookalikes: bool = True  # False: the world's look-alike regions show their own scene numbers
+    gtsam_yaw_bias: bool = False  # the pose graph estimates a constant yaw-rate bias variable
 
 
 @dataclass(frozen=True)
@@ -106,13 +107,15 @@ def _bias_claims(bias: float) -> tuple[Claim, ...]:
             ate_at_most("odometric", "experience_map", 0.5,
                         f"Bias {bias} deg/s in the odometry itself: experience map ATE <= 0.5 m.",
                         "odometric_experience_map"),
-            ate_at_most("odometric", "gtsam", 0.5,
-                        f"Bias {bias} deg/s in the odometry itself: GTSAM ATE <= 0.5 m.", "odometric_gtsam"),
+            ate_at_most("odometric_bias_var", "gtsam", 0.5,
+                        f"Bias {bias} deg/s in the odometry itself: GTSAM, estimating the yaw-rate bias as a "
+                        "graph variable, ATE <= 0.5 m.", "odometric_gtsam"),
             ratio_at_least("odometric", "odometry", "experience_map", 5.0,
                            "Bias in the odometry: experience map >= 5x better than odometry.",
                            "odometric_ratio_ratslam"),
-            ratio_at_least("odometric", "odometry", "gtsam", 5.0,
-                           "Bias in the odometry: GTSAM >= 5x better than odometry.", "odometric_ratio_gtsam"),
+            ratio_at_least("odometric_bias_var", "odometry", "gtsam", 5.0,
+                           "Bias in the odometry: GTSAM with the bias variable >= 5x better than odometry.",
+                           "odometric_ratio_gtsam"),
         ]
     return tuple(claims)
 
@@ -125,7 +128,10 @@ def _bias_figure(name: str, bias: float) -> Figure:
         variants=(Variant("paper", f"{bias} deg/s in RatSLAM's path integration (the paper's manipulation)",
                           pi_bias=bias),
                   Variant("odometric", f"{bias} deg/s in the odometry seen by both systems",
-                          odometric_bias=bias)),
+                          odometric_bias=bias),
+                  Variant("odometric_bias_var", f"{bias} deg/s in the odometry; the pose graph estimates a "
+                          "yaw-rate bias variable (what a practitioner does about a gyro bias)",
+                          odometric_bias=bias, gtsam_yaw_bias=True)),
         claims=_bias_claims(bias),
         notes=("The paper adds the bias to show the pose cells bending while the experience map stays true. "
                "The 'paper' variant distorts only the pose cells' path integration (experience transitions "

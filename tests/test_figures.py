@@ -1,0 +1,100 @@
+"""Per-figure accuracy thresholds: each paper figure is run and each of its claims must hold.
+
+Every figure runs once per session (module fixture) at the paper's duration unless stated in
+``DURATIONS``; every claim of the figure registry is one test, named by the figure and claim
+(the claim's statement is its docstring in the registry, repeated in the report). The
+thresholds inside the claims come from measured runs with a margin; see ``harness/figures.py``.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from harness.figure_run import run_figure
+from harness.figures import FIGURES
+
+# Durations used by the suite: the paper's, except where the suite's 10-minute budget does not
+# allow it (stated here, and the committed reports under reports/ are at the paper's length).
+DURATIONS = {"fig4": 9000.0, "fig11": 3600.0}
+# Variants the suite runs (the primary always runs): fig4's look-alike-rooms variant is reported in
+# reports/fig4 but carries no claim, so the suite skips its 2.5-hour run.
+VARIANTS = {"fig4": ()}
+
+CASES = [(fig.name, claim.key) for fig in FIGURES.values() for claim in fig.claims]
+
+
+@pytest.fixture(scope="module")
+def figure_runs(tmp_path_factory):
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            out = tmp_path_factory.mktemp(name) / "run"
+            run_figure(name, out=out, duration=DURATIONS.get(name), show_progress=False,
+                       variants=VARIANTS.get(name))
+            cache[name] = json.loads((out / "metrics.json").read_text()), out
+        return cache[name]
+    return get
+
+
+@pytest.mark.parametrize("figure, claim", CASES, ids=[f"{f}-{c}" for f, c in CASES])
+def test_paper_claim_holds(figure_runs, figure, claim):
+    """The paper's claim ``claim`` for ``figure`` holds on the measured run."""
+    metrics, _ = figure_runs(figure)
+    result = {c["key"]: c for c in metrics["claims"]}[claim]
+    assert result["held"], f"{figure}: {result['statement']} -- measured {result['measured']}"
+
+
+def test_run_directory_contract(figure_runs):
+    """DESIGN.md run-directory contract: metrics with provenance, TUM files, report, panels."""
+    metrics, out = figure_runs("fig8")
+    for name in ("ground_truth", "odometry", "ratslam", "gtsam"):
+        lines = [ln for ln in (out / "trajectories" / f"{name}.tum").read_text().splitlines()
+                 if not ln.startswith("#")]
+        assert len(lines) == metrics["variants"]["paper"]["ticks"]
+        assert len(lines[0].split()) == 8
+    prov = metrics["provenance"]
+    assert prov["git_commit"] and prov["packages"]["gtsam"] and prov["seed"] == 0
+    assert metrics["variants"]["paper"]["config"]["ratslam"]["pi_bias_deg_s"] == 1.5
+    report = (out / "report.md").read_text()
+    assert "| claim | measured | held |" in report
+    for png in ("a_world.png", "b_pose_cells.png", "c_experience_map.png", "d_gtsam.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG"
+    assert (out / "variants" / "odometric" / "trajectories" / "ratslam.tum").exists()
+
+
+def _umeyama_se2_ate(est, gt):
+    """An independent evo-style ATE: Umeyama (no scale) on positions, RMSE after alignment."""
+    mu_e, mu_g = est.mean(0), gt.mean(0)
+    cov = (gt - mu_g).T @ (est - mu_e) / len(est)
+    u, _, vt = np.linalg.svd(cov)
+    s = np.eye(2)
+    if np.linalg.det(u) * np.linalg.det(vt) < 0:
+        s[1, 1] = -1
+    r = u @ s @ vt
+    t = mu_g - r @ mu_e
+    return float(np.sqrt(np.mean(np.sum((est @ r.T + t - gt) ** 2, axis=1))))
+
+
+def test_tum_files_reproduce_metrics_json_ate(figure_runs):
+    """ATE recomputed evo-style from the TUM files equals the ATE in metrics.json."""
+    metrics, out = figure_runs("fig8")
+    traj = out / "trajectories"
+    gt = np.loadtxt(traj / "ground_truth.tum")
+    for tum, key in (("odometry", "odometry"), ("ratslam", "ratslam_online"), ("gtsam", "gtsam_online")):
+        est = np.loadtxt(traj / f"{tum}.tum")
+        assert np.array_equal(est[:, 0], gt[:, 0])
+        ate = _umeyama_se2_ate(est[:, 1:3], gt[:, 1:3])
+        assert ate == pytest.approx(metrics["variants"]["paper"]["ate"][key], rel=1e-6, abs=1e-6)
+
+
+def test_same_seed_same_metrics(tmp_path):
+    """Determinism: a seed fixes a run; same seed, same accuracy metrics bit for bit."""
+    runs = []
+    for i in range(2):
+        out = run_figure("fig7", out=tmp_path / f"r{i}", duration=240.0, show_progress=False)
+        m = json.loads((out / "metrics.json").read_text())["variants"]["default"]
+        m.pop("timing")
+        runs.append(m)
+    assert runs[0] == runs[1]
