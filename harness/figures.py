@@ -136,9 +136,11 @@ def _bias_figure(name: str, bias: float) -> Figure:
         notes=("The paper adds the bias to show the pose cells bending while the experience map stays true. "
                "The 'paper' variant distorts only the pose cells' path integration (experience transitions "
                "keep the wheel odometry); the 'odometric' variant puts the bias in the odometry itself, seen "
-               "by every consumer. Above ~1.5 deg/s the latter is a physical limit for any SE(2) loop "
-               "closure: a lap takes ~65 s, so 3 deg/s adds ~195 deg of heading per lap, beyond what a "
-               "wrapped angle residual can resolve."),
+               "by every consumer; 'odometric_bias_var' is the same stream with the pose graph estimating a "
+               "constant yaw-rate bias variable, as a practitioner would for a gyro bias. A lap takes ~65 s, "
+               "so 1.5 / 3 / 6 deg/s add ~100 / 195 / 390 deg of heading per lap: without the bias "
+               "variable the pose graph's wrapped angle residuals cannot close the loop even at 1.5 deg/s, "
+               "while RatSLAM's short experience transitions each carry only a few degrees of it."),
     )
 
 
@@ -166,7 +168,13 @@ _register(Figure(
                     "experience_map_consistent"),
     ),
     notes="Pose-cell grid 40 x 40 cells of 0.25 m (10 m x 10 m) wraps on a 25 m x 13 m floor, so that "
-          "hash collisions can happen, as in the paper's Fig 4 F.",
+          "hash collisions can happen, as in the paper's Fig 4 F. The world file makes rooms B and C show "
+          "the same scene numbers (the paper's look-alike places B and C). The primary variant runs with "
+          "B and C showing their own scenes; the 'lookalike_rooms' variant runs the world as shipped. There, "
+          "on entering B the sequence of C's familiar scenes snaps the pose-cell packet to C's cells "
+          "(19 m away) and the experience map adopts the B-C transitions: RatSLAM's view-driven "
+          "relocalisation has no defence against a whole room that looks like another, while the pose "
+          "graph's robust closures, gated by the odometry, reject them (compare the two variants' tables).",
 ))
 
 _register(Figure(
