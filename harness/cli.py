@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
@@ -177,8 +178,14 @@ def _harness_errors() -> tuple[type, ...]:
     return (ReportError, OutputError)
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    # a terminated run cleans up its staging directory as Ctrl-C does
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
         args.func(args)
     except KeyboardInterrupt:
