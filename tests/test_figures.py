@@ -21,7 +21,30 @@ DURATIONS = {"fig4": 9000.0, "fig11": 3600.0}
 # reports/fig4 but carries no claim, so the suite skips its 2.5-hour run.
 VARIANTS = {"fig4": ()}
 
-CASES = [(fig.name, claim.key) for fig in FIGURES.values() for claim in fig.claims]
+# Claims that do not hold in the measured runs (reports/<figure>/report.md has the numbers). They
+# stay as strict expected failures, so the day one of them holds the suite says so; they are not
+# loosened. Cause, measured on every one: a single aliased scene (two places far apart sharing a
+# scene number) snaps the pose-cell packet and the experience map adopts the false transition.
+KNOWN_FAILURES = {
+    ("fig4", "experience_map_consistent"): "office floor, 2.5 h: experience map ATE 3.4 m (odometry 0.95 m)",
+    ("fig11", "g_h_two_pose_cell_loops"): "full floor: the pose cells relocalise the second lap of the room "
+                                          "onto the first (lap centres 0.03 m apart)",
+    ("fig11", "experience_map_consistent"): "full floor, 1 h: experience map ATE 11.5 m",
+    ("fig13", "experience_map_consistent"): "open plan, 15 min: experience map ATE 0.73 m (odometry 0.19 m)",
+}
+
+
+
+def _marks(figure: str, claim: str) -> list:
+    # one xdist group per figure: its claims share one run on one worker
+    marks = [pytest.mark.xdist_group(figure)]
+    if (figure, claim) in KNOWN_FAILURES:
+        marks.append(pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[(figure, claim)]))
+    return marks
+
+
+CASES = [pytest.param(fig.name, claim.key, id=f"{fig.name}-{claim.key}", marks=_marks(fig.name, claim.key))
+         for fig in FIGURES.values() for claim in fig.claims]
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +61,7 @@ def figure_runs(tmp_path_factory):
     return get
 
 
-@pytest.mark.parametrize("figure, claim", CASES, ids=[f"{f}-{c}" for f, c in CASES])
+@pytest.mark.parametrize("figure, claim", CASES)
 def test_paper_claim_holds(figure_runs, figure, claim):
     """The paper's claim ``claim`` for ``figure`` holds on the measured run."""
     metrics, _ = figure_runs(figure)
@@ -46,6 +69,7 @@ def test_paper_claim_holds(figure_runs, figure, claim):
     assert result["held"], f"{figure}: {result['statement']} -- measured {result['measured']}"
 
 
+@pytest.mark.xdist_group("fig8")
 def test_run_directory_contract(figure_runs):
     """DESIGN.md run-directory contract: metrics with provenance, TUM files, report, panels."""
     metrics, out = figure_runs("fig8")
@@ -77,6 +101,7 @@ def _umeyama_se2_ate(est, gt):
     return float(np.sqrt(np.mean(np.sum((est @ r.T + t - gt) ** 2, axis=1))))
 
 
+@pytest.mark.xdist_group("fig8")
 def test_tum_files_reproduce_metrics_json_ate(figure_runs):
     """ATE recomputed evo-style from the TUM files equals the ATE in metrics.json."""
     metrics, out = figure_runs("fig8")
