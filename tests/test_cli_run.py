@@ -1,0 +1,56 @@
+"""``ratslam-harness run``, ``replay`` and ``report`` end to end (DESIGN.md CLI and run-directory
+contracts), and their one-line errors that leave nothing half-written."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+RUN_DIR_FILES = ("recording.rrd", "metrics.json", "report.md", "trajectories/ground_truth.tum",
+                 "trajectories/odometry.tum", "trajectories/ratslam.tum", "trajectories/gtsam.tum")
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True)
+
+
+def test_run_a_figure_writes_the_run_directory_and_says_where_the_recording_is(tmp_path):
+    out = tmp_path / "fig7"
+    r = _cli("run", "fig7", "--out", str(out), "--duration", "60", "--quiet")
+    assert r.returncode == 0, r.stderr
+    for name in RUN_DIR_FILES:
+        assert (out / name).is_file(), name
+    assert f"rerun {out / 'recording.rrd'}" in r.stdout
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["duration_s"] == 60.0 and m["variants"]["default"]["ticks"] == 420
+    assert not list(tmp_path.glob(".fig7.partial-*"))
+
+
+def test_replay_a_log_then_rebuild_its_report(tmp_path):
+    log = tmp_path / "log.csv"
+    assert _cli("simulate", "small_loop", "--out", str(log), "--duration", "60", "--quiet").returncode == 0
+    out = tmp_path / "replay"
+    r = _cli("replay", str(log), "--out", str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    for name in RUN_DIR_FILES:
+        assert (out / name).is_file(), name
+    (out / "report.md").unlink()
+    r = _cli("report", str(out))
+    assert r.returncode == 0, r.stderr
+    assert (out / "report.md").read_text().startswith("# replay")
+
+
+@pytest.mark.parametrize("args, expected", [
+    (("run", "fig99"), "unknown figure 'fig99'"),
+    (("run", "fig7", "--duration", "nan"), "--duration: must be a positive number"),
+    (("replay", "no_such_log.csv", "--out", "OUT"), "no_such_log.csv"),
+    (("report", "no_such_dir"), "no_such_dir: not a directory"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, expected):
+    args = tuple(str(tmp_path / a) if a in ("OUT", "no_such_log.csv", "no_such_dir") else a for a in args)
+    r = subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True,
+                       cwd=tmp_path)
+    assert r.returncode == 2
+    assert expected in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not (tmp_path / "OUT").exists() and not (tmp_path / "reports").exists()
