@@ -11,8 +11,9 @@ RUN_DIR_FILES = ("recording.rrd", "metrics.json", "report.md", "trajectories/gro
                  "trajectories/odometry.tum", "trajectories/ratslam.tum", "trajectories/gtsam.tum")
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True)
+def _cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True,
+                          cwd=cwd)
 
 
 def test_run_a_figure_writes_the_run_directory_and_says_where_the_recording_is(tmp_path):
@@ -49,8 +50,7 @@ def test_replay_a_log_then_rebuild_its_report(tmp_path):
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, expected):
     args = tuple(str(tmp_path / a) if a in ("OUT", "no_such_log.csv", "no_such_dir") else a for a in args)
-    r = subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True,
-                       cwd=tmp_path)
+    r = _cli(*args, cwd=tmp_path)
     assert r.returncode == 2
     assert expected in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert not (tmp_path / "OUT").exists() and not (tmp_path / "reports").exists()

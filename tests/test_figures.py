@@ -34,7 +34,6 @@ KNOWN_FAILURES = {
 }
 
 
-
 def _marks(figure: str, claim: str) -> list:
     # one xdist group per figure: its claims share one run on one worker
     marks = [pytest.mark.xdist_group(figure)]
