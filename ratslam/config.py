@@ -71,6 +71,20 @@ class RatSLAMConfig:
         happens to come while the packet sits where an experience with that view lies (two
         places sharing pose cells, which the bent pose-cell paths of Figs 8-10 make common)
         switches to that experience and adds a false transition; 2 ignores such one-tick views.
+      snap_settle_ticks: after a snap the experience map treats this many ticks as "no view"
+        (it neither switches nor creates experiences; odometry is still integrated). When an
+        aliased scene gives a rival packet as much activity as the true one, the peak flips
+        between the two for a while, and every flip is a snap; a map that follows a flipping peak
+        links places metres apart. Waiting until the peak has been stable for a while lets only a
+        settled hypothesis close a loop; a true relocalisation is merely delayed. 0 = the paper's
+        behaviour (the map acts on every tick's peak).
+      offset_transitions: the map switches to an experience whose cells lie within the zone of
+        influence of the peak, not on it. True: the transition is measured to the experience's
+        own place, i.e. the peak's offset from the experience's cells (at most r_inf cells and
+        theta_inf heading cells, expressed in the experience's frame) is taken off the odometry
+        stored in the transition, and the current pose starts at that offset. False: the paper's
+        transition, as if the robot were exactly at the experience, so every re-entry adds up to
+        r_inf cells (0.5 m) of error to the map.
       r_inf: zone of influence radius in (x', y') cells (eqs 2-3).
       theta_inf: zone of influence in θ' cells (eqs 4-5).
       energy: "sum" = paper eq 9, E = E_V (E_xy + E_θ): a view can match on heading alone, so an
@@ -115,6 +129,8 @@ class RatSLAMConfig:
     view_min_age_ticks: int = 70
     # experience map
     view_confirm_ticks: int = 2
+    snap_settle_ticks: int = 50
+    offset_transitions: bool = True
     r_inf: float = 2.0
     theta_inf: float = 2.0
     energy: str = "product"
@@ -148,6 +164,10 @@ class RatSLAMConfig:
             raise ValueError(f"view_learn_threshold must be in [0, 1), got {self.view_learn_threshold!r}")
         if not isinstance(self.view_confirm_ticks, int) or self.view_confirm_ticks < 1:
             raise ValueError(f"view_confirm_ticks must be an integer >= 1, got {self.view_confirm_ticks!r}")
+        if not isinstance(self.snap_settle_ticks, int) or self.snap_settle_ticks < 0:
+            raise ValueError(f"snap_settle_ticks must be a non-negative integer, got {self.snap_settle_ticks!r}")
+        if not isinstance(self.offset_transitions, bool):
+            raise ValueError(f"offset_transitions must be True or False, got {self.offset_transitions!r}")
         if not isinstance(self.view_min_age_ticks, int) or self.view_min_age_ticks < 1:
             raise ValueError(f"view_min_age_ticks must be an integer >= 1, got {self.view_min_age_ticks!r}")
         if not (isinstance(self.pi_bias_deg_s, (int, float)) and math.isfinite(self.pi_bias_deg_s)):

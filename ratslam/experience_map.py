@@ -194,9 +194,14 @@ class ExperienceMap:
     def _new_experience(self, tick: int, peak_cell: np.ndarray, view: int) -> int:
         return self.add_experience(self.pose, peak_cell, view, tick)
 
-    def _add_link(self, i: int, j: int) -> None:
+    def _add_link(self, i: int, j: int, offset=(0.0, 0.0, 0.0)) -> None:
+        """Link the current experience ``i`` to ``j``, the robot being at ``offset`` in ``j``'s
+        frame: j's place relative to i is the accumulated odometry composed with offset⁻¹."""
         ax, ay, aphi, at = self._acc
-        self.add_transition(i, j, ax, ay, aphi, at)
+        ox, oy, oth = offset
+        phi = aphi - oth
+        c, s = math.cos(phi), math.sin(phi)
+        self.add_transition(i, j, ax - (c * ox - s * oy), ay - (s * ox + c * oy), phi, at)
 
     def add_transition(self, i: int, j: int, dx: float, dy: float, dphi: float, dt: float) -> bool:
         """Link i -> j from odometry (dx, dy, dphi) accumulated in i's frame over dt seconds.
@@ -232,16 +237,30 @@ class ExperienceMap:
             self._enter(j, tick)
             return "create"
         if best != self.current:
+            offset = self.peak_offset(best, peak_cell) if self.config.offset_transitions else (0.0, 0.0, 0.0)
             if self.current >= 0:
-                self._add_link(self.current, best)
-            self._enter(best, tick)
+                self._add_link(self.current, best, offset)
+            self._enter(best, tick, offset)
             return "switch"
         return "none"
 
-    def _enter(self, j: int, tick: int) -> None:
+    def peak_offset(self, j: int, peak_cell: np.ndarray) -> tuple[float, float, float]:
+        """Where the pose-cell peak is relative to experience ``j``'s cells, in ``j``'s frame:
+        (forward m, left m, heading rad), from the wrap-aware cell difference."""
+        cfg = self.config
+        cell = self._exp.cols["cell"][j]
+        d = np.asarray(peak_cell, dtype=float) - cell
+        d -= self._grid * np.round(d / self._grid)                      # wrap-aware
+        dx, dy = d[0] * cfg.cell_size_m, d[1] * cfg.cell_size_m
+        c, s = math.cos(cell[2] * cfg.theta_cell_rad), math.sin(cell[2] * cfg.theta_cell_rad)
+        return (c * dx + s * dy, -s * dx + c * dy, float(d[2]) * cfg.theta_cell_rad)
+
+    def _enter(self, j: int, tick: int, offset=(0.0, 0.0, 0.0)) -> None:
+        """Make ``j`` current; the robot is at ``offset`` in its frame."""
         self.current = j
         self._exp.cols["last"][j] = tick
-        self._acc[:] = 0.0
+        self._acc[:3] = offset
+        self._acc[3] = 0.0
 
     # ------------------------------------------------------------------ eqs 12-14
     def link_residuals(self) -> np.ndarray:

@@ -24,8 +24,8 @@ class RatSLAM:
     if it is familiar; the pose cells iterate and path-integrate the odometry (plus the optional
     path-integration bias); the view cell learns its association with the active pose cells; the
     experience map integrates the wheel odometry, selects/creates the current experience
-    (eqs 2-11) once the scene has been seen for ``view_confirm_ticks`` consecutive ticks, and
-    runs its correction (eqs 12-14).
+    (eqs 2-11) once the scene has been seen for ``view_confirm_ticks`` consecutive ticks and the
+    peak has not snapped for ``snap_settle_ticks``, and runs its correction (eqs 12-14).
 
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
     """
@@ -40,6 +40,7 @@ class RatSLAM:
         self._bias = math.radians(self._config.pi_bias_deg_s)
         self._grid = np.array(self._config.shape, dtype=float)
         self._last_scene, self._scene_run = -1, 0   # consecutive ticks of the current scene
+        self._last_snap = -(1 << 62)                 # step index of the latest snap
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -63,6 +64,10 @@ class RatSLAM:
         em = self.experience_map
         em.integrate(dt, v_trans, v_rot)
         confirmed = scene_id if self._scene_run >= self._config.view_confirm_ticks else -1
+        if self._snapped:
+            self._last_snap = k
+        if k - self._last_snap < self._config.snap_settle_ticks:
+            confirmed = -1                                    # the peak has not settled yet
         em.update(k, new_peak, confirmed)
         for _ in range(self._config.correction_iterations):
             em.correct()
@@ -169,8 +174,8 @@ class RatSLAM:
         arrays.update(self.pose_cells.get_state())
         arrays.update(self.local_view.get_state())
         arrays.update(self.experience_map.get_state())
-        arrays["rs_tick"] = np.array([self._tick, int(self._snapped), self._last_scene, self._scene_run],
-                                     dtype=np.int64)
+        arrays["rs_tick"] = np.array([self._tick, int(self._snapped), self._last_scene, self._scene_run,
+                                      self._last_snap], dtype=np.int64)
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
@@ -188,6 +193,6 @@ class RatSLAM:
         obj.pose_cells.set_state(s)
         obj.local_view.set_state(s)
         obj.experience_map.set_state(s)
-        obj._tick, snapped, obj._last_scene, obj._scene_run = (int(v) for v in s["rs_tick"])
+        obj._tick, snapped, obj._last_scene, obj._scene_run, obj._last_snap = (int(v) for v in s["rs_tick"])
         obj._snapped = bool(snapped)
         return obj

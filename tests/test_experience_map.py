@@ -110,6 +110,46 @@ def test_transition_stores_bearing_heading_change_distance_and_time():
     assert em.pose == pytest.approx((x1, y1, t1))
 
 
+def _revisit_with_offset(offset_transitions: bool) -> ExperienceMap:
+    """Experiences 0, 1, 2 at 0, 2 and 4 m east (cells (10, 10, 0), (18, 10, 0), (26, 10, 0));
+    the robot then returns to (0.25 m, 0.25 m, 0.1 rad) of experience 0, where the pose-cell
+    peak is one cell east and north of experience 0's cells, and sees experience 0's view."""
+    em = ExperienceMap(CFG.replace(offset_transitions=offset_transitions))
+    for k in range(3):
+        if k:
+            em.integrate(1.0, 2.0, 0.0)
+        em.update(k, np.array([10.0 + 8 * k, 10.0, 0.0]), 5 + k)
+    bearing = math.atan2(0.25, -3.75)
+    em.integrate(1.0, 0.0, bearing)
+    em.integrate(1.0, math.hypot(3.75, 0.25), 0.0)
+    em.integrate(1.0, 0.0, 0.1 - bearing)
+    assert em.pose == pytest.approx((0.25, 0.25, 0.1))
+    assert em.update(3, np.array([11.0, 11.0, 0.1 / CFG.theta_cell_rad]), 5) == "switch"
+    return em
+
+
+def test_offset_transition_is_measured_to_the_experience_place():
+    """The switch happens 0.35 m from experience 0 (inside its zone of influence). With offset
+    transitions the link 2 -> 0 is the true relative pose of the two places (4 m, bearing π, no
+    heading change), so the map stays consistent and the pose does not jump at the switch."""
+    em = _revisit_with_offset(True)
+    assert em.link_column("d")[2] == pytest.approx(4.0)
+    assert abs(wrap_angle(em.link_column("theta")[2] - math.pi)) < 1e-12
+    assert em.link_column("phi")[2] == pytest.approx(0.0, abs=1e-12)
+    assert em.pose == pytest.approx((0.25, 0.25, 0.1))
+    np.testing.assert_allclose(em.link_residuals(), 0.0, atol=1e-12)
+
+
+def test_paper_transition_assumes_the_robot_is_at_the_experience():
+    """Without offsets the transition stores the raw odometry (3.76 m, heading change 0.1 rad)
+    and the pose jumps to experience 0: the map now holds a 0.35 m, 0.1 rad inconsistency."""
+    em = _revisit_with_offset(False)
+    assert em.link_column("d")[2] == pytest.approx(math.hypot(3.75, 0.25))
+    assert em.link_column("phi")[2] == pytest.approx(0.1)
+    assert em.pose == pytest.approx((0.0, 0.0, 0.0))
+    assert np.hypot(*em.link_residuals()[2, :2]) == pytest.approx(math.hypot(0.25, 0.25))
+
+
 def _three_experience_map(correction):
     cfg = CFG.replace(correction=correction, alpha_theta=0.5, alpha_d=0.5)
     poses = [(0.0, 0.0, 0.0), (1.2, 0.1, 0.1), (1.0, 1.0, 1.5)]

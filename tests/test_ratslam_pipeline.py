@@ -110,31 +110,61 @@ def test_pose_is_current_experience_composed_with_odometry():
     assert slam.pose == pytest.approx((ex + c * ax - s * ay, ey + s * ax + c * ay, et + aphi), abs=1e-12)
 
 
-def test_strong_familiar_view_far_from_the_packet_produces_a_snap():
-    """Paper: familiar visual input injects energy that can make the peak snap. A robot learns
-    a corridor's scenes, is carried (odometry says) 5 m away, then sees the corridor again: the
-    peak snaps back to where the scenes were learnt."""
-    slam = RatSLAM()
-    corridor = np.repeat(np.arange(10, 18), 23)
+CORRIDOR = np.repeat(np.arange(10, 18), 23)   # eight scenes of 23 ticks each (~1 m at 0.3 m/s)
+
+
+def learn_corridor_then_move_away(slam: RatSLAM) -> dict:
+    """Drive the corridor's scenes east, then (odometry says) 2.5 m north without views, facing
+    east again. Returns the peak where each scene was first seen."""
     learnt = {}
-    for s in corridor:
+    for s in CORRIDOR:
         slam.step(DT, 0.3, 0.0, s)
         learnt.setdefault(s, slam.peak)
-    for _ in range(60):                        # drive north 2.5 m without views
+    for _ in range(60):                        # turn north
         slam.step(DT, 0.0, (math.pi / 2) / (60 * DT), -1)
-    for _ in range(80):
+    for _ in range(80):                        # drive 2.5 m without views
         slam.step(DT, 0.3, 0.0, -1)
     for _ in range(60):                        # face east again
         slam.step(DT, 0.0, -(math.pi / 2) / (60 * DT), -1)
+    return learnt
+
+
+def test_strong_familiar_view_far_from_the_packet_produces_a_snap():
+    """Paper: familiar visual input injects energy that can make the peak snap. A robot learns
+    a corridor's scenes, is carried (odometry says) 2.5 m away, then sees the corridor again: the
+    peak snaps back to where the scenes were learnt."""
+    slam = RatSLAM()
+    learnt = learn_corridor_then_move_away(slam)
     far = slam.peak
     assert np.hypot(*wrapped_diff(far[:2], learnt[10][:2], GRID[:2])) > 8.0
     snaps = []
-    for s in corridor:
+    for s in CORRIDOR:
         slam.step(DT, 0.3, 0.0, s)
         snaps.append(slam.snapped)
     assert any(snaps)
     expected = learnt[17] + np.array([0.3 * DT * 22 / 0.25, 0.0, 0.0])
     assert np.abs(wrapped_diff(slam.peak, expected)).max() < 2.0
+
+
+@pytest.mark.parametrize("settle", [0, 50])
+def test_experience_map_waits_for_the_peak_to_settle_after_a_snap(settle):
+    """A map that follows a flipping peak links far-apart places, so after a snap the map acts
+    on no view for ``snap_settle_ticks``; afterwards the relocalised peak re-enters the
+    corridor's experiences (a loop closure, not new experiences)."""
+    slam = RatSLAM(RatSLAMConfig(snap_settle_ticks=settle))
+    learn_corridor_then_move_away(slam)
+    n_corridor = len(slam.experience_views)
+    first_snap, acted = None, []
+    for k, s in enumerate(CORRIDOR):
+        before = (slam.current_experience, len(slam.experience_views))
+        slam.step(DT, 0.3, 0.0, s)
+        if slam.snapped and first_snap is None:
+            first_snap = k
+        acted.append((slam.current_experience, len(slam.experience_views)) != before)
+    assert first_snap is not None
+    assert not any(acted[first_snap:first_snap + settle])
+    assert any(acted[first_snap + settle:])
+    assert slam.current_experience < n_corridor          # back on a corridor experience
 
 
 def test_single_false_positive_tick_does_not_move_the_peak():
