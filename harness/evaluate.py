@@ -63,7 +63,7 @@ def evaluate_stream(res: StreamResult, log: ObservationLog, gtsam: bool = True) 
         "ratslam_online": (res.ratslam_pose, gt),
         "pose_cell_path": (peak_path, gt),
     }
-    exp_ticks = rs.experience_last_tick
+    exp_ticks = rs.experience_first_tick  # the place each experience stands for
     if len(exp_ticks):
         trajectories["experience_map"] = (rs.experience_poses, gt[exp_ticks])
     if gtsam:

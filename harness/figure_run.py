@@ -50,8 +50,8 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
     M.write_tum(traj / "ratslam.tum", t, *res.ratslam_pose.T)
     M.write_tum(traj / "gtsam.tum", t, *res.gtsam_pose.T)
     rs, pg = res.ratslam, res.gtsam
-    order = np.argsort(rs.experience_last_tick)
-    M.write_tum(traj / "ratslam_experiences.tum", t[rs.experience_last_tick[order]], *rs.experience_poses[order].T)
+    order = np.argsort(rs.experience_first_tick)
+    M.write_tum(traj / "ratslam_experiences.tum", t[rs.experience_first_tick[order]], *rs.experience_poses[order].T)
     if len(pg.keyframe_ticks):
         M.write_tum(traj / "gtsam_keyframes.tum", t[pg.keyframe_ticks], *pg.keyframe_poses.T)
     maps = {

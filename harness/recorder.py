@@ -304,7 +304,7 @@ class Recorder:
             poses = np.asarray(ratslam.experience_poses, dtype=float).reshape(-1, 3)
             links = np.asarray(ratslam.links, dtype=np.int64).reshape(-1, 2)
             if len(poses):
-                xy, err = self._aligned(poses, ratslam.experience_last_tick)
+                xy, err = self._aligned(poses, ratslam.experience_first_tick)
                 rec.log("world/ratslam/experiences", rr.Points2D(xy, colors=[C_EXP], radii=[0.07]))
                 rec.log("world/ratslam/links", rr.LineStrips2D(_segments(xy[links]), colors=[C_LINK], radii=[0.025]))
                 if err is not None:

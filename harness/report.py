@@ -40,7 +40,7 @@ def write_panels(run_dir: Path, metrics: dict, maps: dict) -> list[Path]:
         return []
     odo = read_tum(traj / "odometry.tum")[1]
     fp_xy = gt[maps["false_positive"].astype(bool), :2] if "false_positive" in maps else np.zeros((0, 2))
-    exp_ticks = maps["experience_last_tick"].astype(int)
+    exp_ticks = maps["experience_first_tick"].astype(int)
     out = [
         plots.panel_world(world, gt, odo, fp_xy, run_dir / PANELS[0]),
         plots.panel_pose_cells(maps["peak_cells"], maps["snapped"].astype(bool), tuple(maps["grid_shape"]),
@@ -82,8 +82,9 @@ def render_markdown(metrics: dict, panels: list[str]) -> str:
         lines.append("")
     lines += ["## Accuracy", "",
               "ATE: RMSE of position after least-squares SE(2) alignment to ground truth. "
-              "`experience_map` compares each experience's final map pose with the ground truth at "
-              "its last visit; `*_online` is the estimate at every tick; `pose_cell_path` is the "
+              "`experience_map` compares each experience's final map pose with the ground truth where "
+              "it was created (the place it stands for: later entries are related to that place "
+              "through the pose-cell offset, see `offset_transitions`); `*_online` is the estimate at every tick; `pose_cell_path` is the "
               "pose-cell peak in metres (unwrapped).", ""]
     for name, v in metrics["variants"].items():
         label = metrics.get("variant_labels", {}).get(name, name)

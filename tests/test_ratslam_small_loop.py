@@ -34,7 +34,7 @@ def ate(est: np.ndarray, gt: np.ndarray) -> float:
 
 
 def experience_ate(slam: RatSLAM, log) -> float:
-    k = slam.experience_last_tick
+    k = slam.experience_first_tick
     return ate(slam.experience_poses[:, :2], np.stack((log.gt_x[k], log.gt_y[k]), axis=1))
 
 

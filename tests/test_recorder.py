@@ -2,7 +2,7 @@
 
 The SLAM systems are stood in for by small fakes exposing the read-access attributes the
 recorder uses (``RatSLAM``: peak, snapped, pose_cell_activity, experience_poses, links,
-experience_last_tick; ``PoseGraphSLAM``: keyframe_poses, keyframe_ticks, loop_closures,
+experience_first_tick; ``PoseGraphSLAM``: keyframe_poses, keyframe_ticks, loop_closures,
 closure_accepted), so the expected content of the file is known exactly.
 """
 
@@ -65,7 +65,7 @@ class FakeRatSLAM:
         return np.array(self._poses).reshape(-1, 3)
 
     @property
-    def experience_last_tick(self):
+    def experience_first_tick(self):
         return np.array(self._last, dtype=int)
 
     @property
@@ -206,7 +206,7 @@ def test_maps_drawn_aligned_to_ground_truth(recording):
     _, info, _, by_entity = recording
     _, pts = column(by_entity, "/world/ratslam/experiences", "Points2D:positions")
     final = np.array(pts[-1])
-    truth = np.array([ground_truth(k)[:2] for k in info["rs"].experience_last_tick])
+    truth = np.array([ground_truth(k)[:2] for k in info["rs"].experience_first_tick])
     np.testing.assert_allclose(final, truth, atol=1e-4)
     _, strips = column(by_entity, "/world/gtsam/estimate", "LineStrips2D:strips")
     truth = np.array([ground_truth(k)[:2] for k in info["pg"].keyframe_ticks])
