@@ -23,14 +23,10 @@ VARIANTS = {"fig4": ()}
 
 # Claims that do not hold in the measured runs (reports/<figure>/report.md has the numbers). They
 # stay as strict expected failures, so the day one of them holds the suite says so; they are not
-# loosened. Cause, measured on every one: a single aliased scene (two places far apart sharing a
-# scene number) snaps the pose-cell packet and the experience map adopts the false transition.
+# loosened.
 KNOWN_FAILURES = {
-    ("fig4", "experience_map_consistent"): "office floor, 2.5 h: experience map ATE 3.4 m (odometry 0.95 m)",
     ("fig11", "g_h_two_pose_cell_loops"): "full floor: the pose cells relocalise the second lap of the room "
                                           "onto the first (lap centres 0.03 m apart)",
-    ("fig11", "experience_map_consistent"): "full floor, 1 h: experience map ATE 11.5 m",
-    ("fig13", "experience_map_consistent"): "open plan, 15 min: experience map ATE 0.73 m (odometry 0.19 m)",
 }
 
 
