@@ -99,9 +99,10 @@ class RatSLAMConfig:
         stays current for as long as its scene is in view, so the map is sparser (one
         experience per scene visit).
         "product" = E_V E_xy E_θ: the stricter form, the view must agree on place and heading.
-        Measured on small_loop (15 min, seed 0, experience ATE): with view confirmation both
-        hold (product 0.14-0.19 m, sum 0.14-0.22 m); with view_confirm_ticks=1 and 1%
-        false positives both collapse (product 1.2-1.3 m, sum 1.9-2.2 m).
+        Measured on small_loop (15 min, seed 0, experience ATE; path-integration bias 1.5 / 3 /
+        6 deg/s, then 1.5 deg/s odometric bias), with 1% per-tick false positives: product
+        0.07 / 0.08 / 0.07 / 0.11 m, sum 0.08 / 0.08 / 0.06 / 0.15 m; with view_confirm_ticks=1
+        as well, product 0.12 / 0.12 / 2.63 / 0.10 m, sum 0.86 / 1.52 / 2.68 / 0.87 m.
       alpha_theta, alpha_d: correction rates of eqs 12-14 (paper Table 1: 0.5).
       correction: "stable" = α times the mean residual over the experience's links (converges);
         "printed" = α times the sum of residuals exactly as printed; it overshoots at experiences
