@@ -53,7 +53,8 @@ class PoseGraphSLAM:
         # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
         self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
         self._scenes = SceneIndex(cfg.closure_min_travel, cfg.closure_max_candidates,
-                                  cfg.closure_candidate_window, cfg.closure_recent_tolerance)
+                                  cfg.closure_candidate_window, cfg.closure_recent_tolerance,
+                                  cfg.closure_early_tolerance)
         self._isam = make_isam2(cfg) if cfg.online else None
         self._graph = gtsam.NonlinearFactorGraph()  # every factor, for batch / GNC
         self._values = gtsam.Values()  # initial guesses (the estimate when offline)
