@@ -187,7 +187,15 @@ class PoseGraphSLAM:
                 factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(j), gtsam.Pose2(), self._pending_noise)
                 self._lc_provisional[c] = True
             new_factors.add(factor)
-        result = self._isam.update(new_factors, new_values)
+        # Constrain only the new keyframe (and the bias, which every odometry factor
+        # touches) to the end of the elimination order.  iSAM2's default constrains every
+        # key of the new factors, so the old end of each closure is dragged to the root
+        # too; left free, COLAMD places it with less fill.
+        last = gtsam.KeyGroupMap()
+        last.insert2(X(j), 1)
+        if cfg.estimate_yaw_bias:
+            last.insert2(BIAS_KEY, 1)
+        result = self._isam.update(new_factors, new_values, [], last)
         indices = result.getNewFactorsIndices()
         for n, (c, _) in enumerate(closure_factors):
             self._lc_isam_index[c] = indices[1 + n]
