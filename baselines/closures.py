@@ -7,7 +7,12 @@ except the ones the robot left less than ``closure_min_travel`` metres of
 odometric path ago (the same visit, already tied by odometry).  The most recent
 ``closure_candidate_window`` sightings are ranked by their distance to the new
 keyframe in the current estimate and the nearest ``closure_max_candidates`` are
-linked (ties go to the earlier keyframe).
+linked (ties go to the earlier keyframe).  Optionally, sightings within a
+tolerance of the nearest count as equally near and the most recent
+(``closure_recent_tolerance``) or the earliest (``closure_early_tolerance``) of
+them is linked (a positive ``closure_recent_tolerance`` takes precedence); when
+preferring the earliest, the window holds the earliest
+half-window and the most recent half-window of sightings.
 """
 
 from __future__ import annotations
@@ -20,8 +25,10 @@ import math
 class SceneIndex:
     """Scene number -> keyframes that saw it, in creation order."""
 
-    def __init__(self, min_travel: float, max_candidates: int, window: int, tolerance: float = 0.0) -> None:
+    def __init__(self, min_travel: float, max_candidates: int, window: int, tolerance: float = 0.0,
+                 early_tolerance: float = 0.0) -> None:
         self._tolerance = tolerance
+        self._early_tolerance = early_tolerance
         self._min_travel = min_travel
         self._max_candidates = max_candidates
         self._window = window
@@ -52,7 +59,15 @@ class SceneIndex:
         if not seen:
             return []
         limit = new_path - self._min_travel
-        eligible = [i for i in seen[-self._window:] if path_length[i] <= limit]
+        early = self._early_tolerance > 0.0 and self._tolerance <= 0.0  # recent takes precedence
+        if early and len(seen) > self._window:
+            # Earliest-preferring: rank the earliest sightings (what the map is anchored
+            # to) and the most recent ones, half the window each.
+            half = self._window // 2
+            pool = seen[:half] + seen[-(self._window - half):]
+        else:
+            pool = seen[-self._window:]
+        eligible = [i for i in pool if path_length[i] <= limit]
         if not eligible:
             return []
         nx, ny = new_xy
@@ -61,10 +76,12 @@ class SceneIndex:
             x, y = estimate_xy(i)
             ranked.append((math.hypot(x - nx, y - ny), i))
         ranked.sort()
-        if self._tolerance > 0.0:
-            # Sightings about as near as the nearest: prefer the most recent.
-            limit_d = ranked[0][0] + self._tolerance
-            near = sorted((i for d, i in ranked if d <= limit_d), reverse=True)
+        if self._tolerance > 0.0 or early:
+            # Sightings about as near as the nearest count as equally near: prefer the
+            # most recent (``tolerance``) or the earliest (``early_tolerance``) of them.
+            recent = self._tolerance > 0.0
+            limit_d = ranked[0][0] + (self._tolerance if recent else self._early_tolerance)
+            near = sorted((i for d, i in ranked if d <= limit_d), reverse=recent)
             far = [i for d, i in ranked if d > limit_d]
             return (near + far)[: self._max_candidates]
         return [i for _, i in ranked[: self._max_candidates]]

@@ -53,7 +53,8 @@ class PoseGraphSLAM:
         # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
         self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
         self._scenes = SceneIndex(cfg.closure_min_travel, cfg.closure_max_candidates,
-                                  cfg.closure_candidate_window, cfg.closure_recent_tolerance)
+                                  cfg.closure_candidate_window, cfg.closure_recent_tolerance,
+                                  cfg.closure_early_tolerance)
         self._isam = make_isam2(cfg) if cfg.online else None
         self._graph = gtsam.NonlinearFactorGraph()  # every factor, for batch / GNC
         self._values = gtsam.Values()  # initial guesses (the estimate when offline)
@@ -186,7 +187,15 @@ class PoseGraphSLAM:
                 factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(j), gtsam.Pose2(), self._pending_noise)
                 self._lc_provisional[c] = True
             new_factors.add(factor)
-        result = self._isam.update(new_factors, new_values)
+        # Constrain only the new keyframe (and the bias, which every odometry factor
+        # touches) to the end of the elimination order.  iSAM2's default constrains every
+        # key of the new factors, so the old end of each closure is dragged to the root
+        # too; left free, COLAMD places it with less fill.
+        last = gtsam.KeyGroupMap()
+        last.insert2(X(j), 1)
+        if cfg.estimate_yaw_bias:
+            last.insert2(BIAS_KEY, 1)
+        result = self._isam.update(new_factors, new_values, [], last)
         indices = result.getNewFactorsIndices()
         for n, (c, _) in enumerate(closure_factors):
             self._lc_isam_index[c] = indices[1 + n]

@@ -54,6 +54,7 @@ def test_config_is_a_dataclass_for_provenance():
         ({"isam2_relinearize_skip": 0}, "isam2_relinearize_skip"),
         ({"isam2_bias_relinearize_threshold": -1.0}, "isam2_bias_relinearize_threshold"),
         ({"closure_recent_tolerance": -0.1}, "closure_recent_tolerance"),
+        ({"closure_early_tolerance": float("nan")}, "closure_early_tolerance"),
         ({"online": 1}, "online"),
         ({"yaw_bias_prior_sigma": 0.0}, "yaw_bias_prior_sigma"),
         ({"backend": "gnc", "estimate_yaw_bias": True}, "estimate_yaw_bias"),

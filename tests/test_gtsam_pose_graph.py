@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
+from baselines.closures import SceneIndex
 
 DT = 1.0 / 7.0
 
@@ -145,6 +146,27 @@ def test_closures_link_only_distant_earlier_sightings(stream):
     assert np.all(np.hypot(gi[:, 0] - gj[:, 0], gi[:, 1] - gj[:, 1]) < 1.5)  # noiseless labels: all true
     # Odometric path between the two keyframes is at least closure_min_travel: they are laps apart.
     assert np.all(slam.keyframe_times[lc[:, 1]] - slam.keyframe_times[lc[:, 0]] > 4.0 / 0.3)
+
+
+def test_closure_tie_break_nearest_recent_or_earliest():
+    """Sightings of one scene at x = 0.10, 0.00, 0.05, 0.30 m (keyframes 0-3); the new keyframe at 0."""
+    xs = [0.10, 0.00, 0.05, 0.30]
+    path = [0.0, 10.0, 20.0, 30.0]
+
+    def pick(window=64, **kw):
+        index = SceneIndex(min_travel=4.0, max_candidates=1, window=window, **kw)
+        for i in range(len(xs)):
+            index.add(7, i)
+        return index.candidates(7, path, 40.0, (0.0, 0.0), lambda i: (xs[i], 0.0))
+
+    assert pick() == [1]  # nearest
+    assert pick(tolerance=0.12) == [2]  # most recent within 0.12 m of the nearest
+    assert pick(early_tolerance=0.12) == [0]  # earliest within 0.12 m of the nearest
+    assert pick(early_tolerance=0.04) == [1]  # only the nearest is that near
+    assert pick(tolerance=0.12, early_tolerance=0.12) == [2]  # recent takes precedence
+    # Earliest-preferring keeps the earliest half of a full window: keyframe 0 is still ranked.
+    assert pick(window=2, early_tolerance=0.5) == [0]
+    assert pick(window=2) == [2]  # the plain window holds the two most recent only
 
 
 def test_gaussian_weights_are_one(stream):
