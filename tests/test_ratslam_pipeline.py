@@ -228,7 +228,8 @@ def test_determinism_bit_identical():
 
 @pytest.mark.parametrize("field,value", [("nx", 2), ("energy", "max"), ("correction", "x"),
                                          ("alpha_d", 1.5), ("global_inhibition", -1.0),
-                                         ("view_min_age_ticks", 0), ("r_inf", 0.0)])
+                                         ("view_min_age_ticks", 0), ("r_inf", 0.0),
+                                         ("snap_settle_ticks", -1), ("offset_transitions", 1)])
 def test_bad_config_raises_one_line_value_error(field, value):
     with pytest.raises(ValueError, match=field) as err:
         RatSLAMConfig(**{field: value})
