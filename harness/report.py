@@ -84,8 +84,8 @@ def render_markdown(metrics: dict, panels: list[str]) -> str:
               "ATE: RMSE of position after least-squares SE(2) alignment to ground truth. "
               "`experience_map` compares each experience's final map pose with the ground truth where "
               "it was created (the place it stands for: later entries are related to that place "
-              "through the pose-cell offset, see `offset_transitions`); `*_online` is the estimate at every tick; `pose_cell_path` is the "
-              "pose-cell peak in metres (unwrapped).", ""]
+              "through the pose-cell offset, see `offset_transitions`); `*_online` is the estimate "
+              "at every tick; `pose_cell_path` is the pose-cell peak in metres (unwrapped).", ""]
     for name, v in metrics["variants"].items():
         label = metrics.get("variant_labels", {}).get(name, name)
         lines += [f"### Variant `{name}`: {label}", "", "| trajectory | ATE (m) | alignment yaw (deg) |",

@@ -14,7 +14,11 @@ Zone of influence (eqs 2-9), with r and Δθ' measured wrap-aware in cell units:
 
 No experience with positive energy -> a new experience at the current pose (eqs 10-11), linked
 from the previous one; otherwise the most energetic experience becomes current (with a link from
-the previous one if they are not linked yet).
+the previous one if they are not linked yet). The switch happens anywhere within the zone of
+influence; with ``offset_transitions`` the new link is measured to the experience's own place
+(the odometry composed with the inverse of the peak's offset from the experience's cells) and
+the current pose starts at that offset, so a consistent map neither gains an error nor makes
+the pose jump at a re-entry.
 
 Map correction (eqs 12-14), every tick, all experiences at once (Jacobi)::
 

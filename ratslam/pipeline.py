@@ -14,7 +14,7 @@ from .experience_map import ExperienceMap
 from .local_view import LocalView
 from .pose_cells import PoseCells
 
-_FORMAT = "ratslam-state-1"
+_FORMAT = "ratslam-state-2"  # 2: adds the step index of the latest snap
 
 
 class RatSLAM:
@@ -188,7 +188,8 @@ class RatSLAM:
             s = {k: data[k] for k in data.files}
         meta = json.loads(bytes(s["meta_json"]).decode())
         if meta.get("format") != _FORMAT:
-            raise ValueError(f"{path}: not a RatSLAM state file (format {meta.get('format')!r})")
+            raise ValueError(f"{path}: not a RatSLAM state file of this version "
+                             f"(format {meta.get('format')!r}, expected {_FORMAT!r})")
         obj = cls(RatSLAMConfig(**meta["config"]))
         obj.pose_cells.set_state(s)
         obj.local_view.set_state(s)
