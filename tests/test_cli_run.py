@@ -73,6 +73,6 @@ def test_same_seed_same_metrics_bit_for_bit(tmp_path):
         assert r.returncode == 0, r.stderr
     a, b = (json.loads((out / "metrics.json").read_text()) for out in outs)
     assert _without_timing(a) == _without_timing(b)
-    assert a["variants"]["paper"]["snaps"] >= 0 and a["seed"] == 3
+    assert a["seed"] == 3
     for tum in ("ratslam.tum", "gtsam.tum", "ratslam_experiences.tum"):
         assert (outs[0] / "trajectories" / tum).read_bytes() == (outs[1] / "trajectories" / tum).read_bytes()
