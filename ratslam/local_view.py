@@ -18,6 +18,7 @@ import numpy as np
 
 from .config import RatSLAMConfig
 from .pose_cells import PoseCells
+from .view_kernels import merge_associations
 
 FATIGUE_CAP = 2.0
 """Fatigue never exceeds this, so a view recovers within ``FATIGUE_CAP / view_fatigue_recovery``
@@ -90,19 +91,10 @@ class LocalView:
         cfg = self.config
         v = self.current
         if v >= 0 and self.activity > 0.0:
-            cells, p = pose_cells.active_cells()
-            keep = p >= cfg.view_learn_threshold * p.max()
-            cells, p = cells[keep], p[keep]
-            lin = cells @ self._strides
+            lin, p = pose_cells.cells_at_least(cfg.view_learn_threshold)
             w = (cfg.view_learn_rate * self.activity) * p
-            all_lin = np.concatenate((self._assoc_lin[v], lin))
-            all_w = np.concatenate((self._assoc_w[v], w))
-            all_t = np.concatenate((self._assoc_tick[v], np.full(lin.size, tick, dtype=np.int64)))
-            order = np.lexsort((-all_w, all_lin))      # by cell, strongest first (old wins ties)
-            all_lin, all_w, all_t = all_lin[order], all_w[order], all_t[order]
-            first = np.ones(all_lin.size, dtype=bool)
-            first[1:] = all_lin[1:] != all_lin[:-1]
-            self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v] = all_lin[first], all_w[first], all_t[first]
+            self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v] = merge_associations(
+                self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v], lin, w, tick)
         if self.fatigue.size:
             active_fatigue = float(self.fatigue[v]) if v >= 0 else 0.0
             self.fatigue -= cfg.view_fatigue_recovery

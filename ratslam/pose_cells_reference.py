@@ -62,6 +62,14 @@ class FullGridPoseCells:
         t, x, y = np.nonzero(self._act)
         return np.stack((x, y, t), axis=1), self._act[t, x, y]
 
+    def cells_at_least(self, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+        """Active cells at or above ``fraction`` of the strongest: sorted linear indices over
+        (x', y', θ') and their activities."""
+        a = self.activity                                   # (x, y, θ): C order is the linear index
+        flat = a.reshape(-1)
+        lin = np.flatnonzero((flat > 0.0) & (flat >= fraction * flat.max()))
+        return lin, flat[lin]
+
     def inject(self, cells: np.ndarray, energy) -> None:
         """Add ``energy`` at integer cells (k, 3) of (x', y', θ')."""
         cells = np.atleast_2d(np.asarray(cells, dtype=np.int64))

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from ratslam import RatSLAMConfig
-from ratslam.pose_cells import PoseCells, _cover_arc, gaussian_kernel
+from ratslam.pose_cell_kernels import cover_arc
+from ratslam.pose_cells import PoseCells, _arc_union, gaussian_kernel
 from ratslam.pose_cells_reference import FullGridPoseCells
 
 CFG = RatSLAMConfig()
@@ -39,10 +40,30 @@ def test_gaussian_kernel_is_normalised_and_symmetric():
 def test_cover_arc_finds_smallest_wrapping_arc():
     occ = np.zeros(10, dtype=bool)
     occ[[0, 1, 9]] = True
-    assert _cover_arc(occ) == (9, 3)
+    assert cover_arc(occ, 0, 10) == (9, 3)
+    assert cover_arc(occ, 4, 10) == (3, 3)        # the same ring read from global index 4
     occ[:] = False
     occ[[3, 5]] = True
-    assert _cover_arc(occ) == (3, 3)
+    assert cover_arc(occ, 0, 10) == (3, 3)
+    occ[:] = True
+    assert cover_arc(occ, 0, 10) == (0, 10)
+    assert cover_arc(occ[:4], 7, 10) == (7, 4)    # a box shorter than the ring: plain extent
+
+
+def test_arc_union_is_the_smallest_covering_arc():
+    """Merged boxes cover both boxes with the smallest wrap-aware arc (brute force check)."""
+    n = 9
+    for s1 in range(n):
+        for l1 in range(1, n + 1):
+            for s2 in range(n):
+                for l2 in range(1, n + 1):
+                    start, length = _arc_union(s1, l1, s2, l2, n)
+                    cover = {(start + i) % n for i in range(length)}
+                    want = {(s1 + i) % n for i in range(l1)} | {(s2 + i) % n for i in range(l2)}
+                    assert want <= cover
+                    occ = np.zeros(n, dtype=bool)
+                    occ[list(want)] = True
+                    assert length == cover_arc(occ, 0, n)[1]
 
 
 def test_packet_stays_put_and_keeps_mass_without_input():
