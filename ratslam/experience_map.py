@@ -39,9 +39,11 @@ import math
 
 import numpy as np
 
+from . import map_kernels
 from .config import RatSLAMConfig
 
 _PI = math.pi
+_NO_DIVISOR = np.zeros(0)
 
 
 def wrap_angle(a):
@@ -105,7 +107,7 @@ class ExperienceMap:
         # odometry accumulated since the current experience was entered, in its frame
         self._acc = np.zeros(4)  # x, y, phi, t
         self._grid = np.array(config.shape, dtype=float)
-        self._scatter_key = None
+        self._divisor_key = None
 
     # ------------------------------------------------------------------ read access
     @property
@@ -284,38 +286,27 @@ class ExperienceMap:
         rt = wrap_angle(ex["th"].take(tj) - thi - lk["phi"][:m])
         return rx, ry, rt
 
-    def _scatter_index(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """Experience index each link's residual adds to (+ at from, - at to, concatenated) and
-        the per-experience divisor of the stable form (None for the printed sums)."""
+    def _inverse_degree(self) -> np.ndarray:
+        """Per-experience 1 / link count for the stable form (empty for the printed sums);
+        recomputed only when the map grows."""
         key = (self._exp.n, self._link.n, self.config.correction)
-        if self._scatter_key != key:
-            m = self._link.n
-            self._scatter = np.concatenate((self._link.cols["from"][:m], self._link.cols["to"][:m]))
+        if self._divisor_key != key:
             if self.config.correction == "stable":
                 self._divisor = 1.0 / np.maximum(self._exp.cols["degree"][: self._exp.n], 1.0)
             else:
-                self._divisor = None
-            self._scatter_key = key
-        return self._scatter, self._divisor
+                self._divisor = _NO_DIVISOR
+            self._divisor_key = key
+        return self._divisor
 
     def correct(self) -> None:
-        """One pass of eqs 12-14 over all links (vectorised, simultaneous update)."""
+        """One pass of eqs 12-14 over all links (simultaneous update, compiled loop)."""
         n, m = self._exp.n, self._link.n
         if m == 0:
             return
         cfg = self.config
-        index, inv_degree = self._scatter_index()
-        ex = self._exp.cols
-        deltas = []
-        for r in self._residual_columns():
-            # a link i -> j adds +residual to i (the sum over j) and -residual to j (the sum over k)
-            delta = np.bincount(index, np.concatenate((r, -r)), minlength=n)
-            if inv_degree is not None:
-                delta *= inv_degree                             # stable: α times the mean residual
-            deltas.append(delta)
-        ex["x"][:n] += cfg.alpha_d * deltas[0]
-        ex["y"][:n] += cfg.alpha_d * deltas[1]
-        ex["th"][:n] = wrap_angle(ex["th"][:n] + cfg.alpha_theta * deltas[2])
+        ex, lk = self._exp.cols, self._link.cols
+        map_kernels.correct(ex["x"], ex["y"], ex["th"], n, lk["from"], lk["to"], lk["d"], lk["theta"],
+                            lk["phi"], m, self._inverse_degree(), cfg.alpha_d, cfg.alpha_theta)
 
     # ------------------------------------------------------------------ state i/o
     def get_state(self) -> dict:
@@ -332,7 +323,7 @@ class ExperienceMap:
         self._link.load({k: s[f"lk_{k}"] for k in self._link.cols})
         self.current = int(s["em_current"][0])
         self._acc = np.asarray(s["em_acc"], dtype=float).copy()
-        self._scatter_key = None
+        self._divisor_key = None
         self._by_view = {}
         for i, v in enumerate(self.views):
             self._by_view.setdefault(int(v), []).append(i)

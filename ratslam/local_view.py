@@ -76,11 +76,8 @@ class LocalView:
         if self.activity > 0.0 and cfg.view_inject > 0.0 and self._assoc_lin[v].size:
             old = self._assoc_tick[v] <= tick - cfg.view_min_age_ticks
             if np.any(old):
-                lin = self._assoc_lin[v][old]
                 energy = (cfg.view_inject * self.activity) * self._assoc_w[v][old]
-                cells = np.stack((lin // self._strides[0], (lin // self._strides[1]) % self.config.ny,
-                                  lin % self.config.n_theta), axis=1)
-                pose_cells.inject(cells, energy)
+                pose_cells.inject_linear(self._assoc_lin[v][old], energy)
                 self.injected = float(energy.sum())
         return v
 

@@ -58,10 +58,11 @@ def op_mid(inp, off, kw, lout, n):
                 i1 = min(length, lout - delta)
                 if i0 >= i1:
                     continue
-                src = i0 * c_len
-                dst = (i0 + delta) * c_len
-                for q in range((i1 - i0) * c_len):
-                    flat_out[a, dst + q] += k * flat_in[a, src + q]
+                cnt = (i1 - i0) * c_len
+                dst = flat_out[a, (i0 + delta) * c_len:(i0 + delta) * c_len + cnt]
+                src = flat_in[a, i0 * c_len:i0 * c_len + cnt]
+                for q in range(cnt):            # row views + range index: vectorised
+                    dst[q] += k * src[q]
     return out
 
 
@@ -87,9 +88,12 @@ def op_last(inp, off, kw, lout, n):
                 i1 = min(length, lout - delta)
                 if i0 >= i1:
                     continue
+                cnt = i1 - i0
                 for b in range(b_len):
-                    for i in range(i0, i1):
-                        out[a, b, i + delta] += k * inp[a, b, i]
+                    dst = out[a, b, i0 + delta:i1 + delta]
+                    src = inp[a, b, i0:i1]
+                    for q in range(cnt):
+                        dst[q] += k * src[q]
     return out
 
 
@@ -129,9 +133,10 @@ def inhibit_clip_crop(exc, taps0, taps1, taps2, off_within, weight, global_inh, 
     py = np.zeros(ly, dtype=np.bool_)
     for t in range(lt):
         for x in range(lx):
+            row = exc[t, x]
             row_any = False
             for y in range(ly):
-                if exc[t, x, y] > global_inh:
+                if row[y] > global_inh:
                     py[y] = True
                     row_any = True
             if row_any:
@@ -160,15 +165,18 @@ def inhibit_clip_crop(exc, taps0, taps1, taps2, off_within, weight, global_inh, 
     qy = np.zeros(ny, dtype=np.bool_)
     for t in range(nt):
         for x in range(nx):
+            e_row = exc[t0 + t, x0 + x, y0:y0 + ny]
+            i_row = inh[t, x]
+            a_row = act[t, x]
             row_any = False
             for y in range(ny):
-                v = exc[t0 + t, x0 + x, y0 + y] - weight * inh[t, x, y] - global_inh
+                v = e_row[y] - weight * i_row[y] - global_inh
                 if v > 0.0:
-                    act[t, x, y] = v
+                    a_row[y] = v
                     qy[y] = True
                     row_any = True
                 else:
-                    act[t, x, y] = 0.0
+                    a_row[y] = 0.0
             if row_any:
                 qt[t] = True
                 qx[x] = True
@@ -241,15 +249,23 @@ def crop(act, pt, px, py, start, n):
     lt, lx, ly = act.shape
     out = np.empty((l0, l1, l2))
     total = 0.0
+    contiguous = o2 + l2 <= ly                   # the y range does not wrap round the old box
     for t in range(l0):
         st = (o0 + t) % n[0]
         for x in range(l1):
             sx = (o1 + x) % n[1]
-            for y in range(l2):
-                sy = (o2 + y) % n[2]
-                v = act[st, sx, sy] if (st < lt and sx < lx and sy < ly) else 0.0
-                out[t, x, y] = v
-                total += v
+            dst = out[t, x]
+            if contiguous:
+                src = act[st, sx, o2:o2 + l2]
+                for y in range(l2):
+                    dst[y] = src[y]
+                    total += src[y]
+            else:
+                for y in range(l2):
+                    sy = (o2 + y) % n[2]
+                    v = act[st, sx, sy] if sy < ly else 0.0
+                    dst[y] = v
+                    total += v
     return new_start, out, total
 
 
@@ -464,3 +480,16 @@ def rebox_add(out, out_start, act, start, n):
             ox = (start[1] + x - out_start[1]) % n[1]
             for y in range(ly):
                 out[ot, ox, (start[2] + y - out_start[2]) % n[2]] += act[t, x, y]
+
+
+@njit(cache=True)
+def decode_linear(lin, n):
+    """Global cells (3, k) as (θ, x, y) of linear indices ``(x·ny + y)·nθ + θ``."""
+    g = np.empty((3, lin.shape[0]), dtype=np.int64)
+    for c in range(lin.shape[0]):
+        v = lin[c]
+        g[0, c] = v % n[0]
+        v //= n[0]
+        g[2, c] = v % n[2]
+        g[1, c] = v // n[2]
+    return g

@@ -169,9 +169,19 @@ class PoseCells:
         cells = np.atleast_2d(np.asarray(cells, dtype=np.int64))
         if cells.size == 0:
             return
-        energy = np.ascontiguousarray(np.broadcast_to(np.asarray(energy, dtype=float), (cells.shape[0],)))
         n = self._n
-        g = np.stack((cells[:, 2] % n[0], cells[:, 0] % n[1], cells[:, 1] % n[2]))
+        self._inject_global(np.stack((cells[:, 2] % n[0], cells[:, 0] % n[1], cells[:, 1] % n[2])), energy)
+
+    def inject_linear(self, lin: np.ndarray, energy: np.ndarray | float) -> None:
+        """:meth:`inject` at cells given by linear index ``(x' * ny + y') * n_theta + θ'``."""
+        lin = np.asarray(lin, dtype=np.int64)
+        if lin.size:
+            self._inject_global(K.decode_linear(lin, self._n), energy)
+
+    def _inject_global(self, g: np.ndarray, energy) -> None:
+        """Inject at global cells ``g`` (3, k) as (θ', x', y')."""
+        n = self._n
+        energy = np.ascontiguousarray(np.broadcast_to(np.asarray(energy, dtype=float), (g.shape[1],)))
         todo = np.ones(g.shape[1], dtype=bool)
         for start, act in self._boxes:
             K.add_inside(act, start, n, g, energy, todo)

@@ -77,6 +77,12 @@ class FullGridPoseCells:
         c = self.config
         np.add.at(self._act, (cells[:, 2] % c.n_theta, cells[:, 0] % c.nx, cells[:, 1] % c.ny), energy)
 
+    def inject_linear(self, lin: np.ndarray, energy) -> None:
+        """Add ``energy`` at linear indices ``(x' * ny + y') * n_theta + θ'``."""
+        c = self.config
+        lin = np.asarray(lin, dtype=np.int64)
+        self.inject(np.stack((lin // (c.ny * c.n_theta), (lin // c.n_theta) % c.ny, lin % c.n_theta), axis=1), energy)
+
     def _blur(self, a: np.ndarray, k: tuple) -> np.ndarray:
         for axis in range(3):
             a = ndimage.correlate1d(a, k[axis], axis=axis, mode="wrap")
