@@ -1,46 +1,51 @@
-"""Benchmark: RatSLAM.step rate, against a straightforward full-grid pose-cell update.
+"""Benchmark: RatSLAM.step per stream, the sparse box path against the full-grid reference.
 
-Run:  /work/venv/bin/python bench/bench_ratslam.py [--quick]
+Run:  python bench/bench_ratslam.py [--quick]
 
 Reports, in one run:
-* full ``RatSLAM.step`` rate on a 60 x 60 x 36 grid with 1,000 and 20,000 experiences already in
-  the map (the map correction runs over all their links every tick);
-* the same pipeline with the pose cells replaced by the full-grid reference update
-  (scipy.ndimage wrap-around correlations over the whole grid), as the ratio's denominator;
-* the pose-cell update alone, windowed vs full grid;
-* scaling with grid side (30, 60, 100 cells; 36 heading cells) and with experience count.
+* per stream of ``bench/streams.py`` (clean, false positives + aliasing + bias, the office
+  floor, a fast simulated stream, two real vehicles' odometry): ``RatSLAM.step`` steps/s with
+  the default configuration (60 x 60 x 36) over the stream, and on its first ``--ref-ticks``
+  ticks both the box path and the same pipeline with the pose cells replaced by the full-grid
+  reference (``ratslam.pose_cells_reference``), with their ratio; the median and the worst
+  stream;
+* the worst case for boxes: activity over the whole grid (one step, box path vs reference);
+* scaling with experience count (map correction over all links every tick).
 
-Input: the ``small_loop`` world (default aliasing and false positives), so view injections,
-snaps and competing packets are part of the timing. Timings are noisy on a shared machine:
-each figure is the best of ``--repeats`` runs; ratios are the figures to compare.
+Timings are noisy on a shared machine: each figure is the best of ``--repeats`` runs and the
+ratios (measured in the same run) are the figures to compare. Compiled kernels are loaded
+(or compiled) before timing; the warm-up is reported.
 """
 
 from __future__ import annotations
 
 import os
 
-# The pose-cell matrices are small: on a loaded 2-core machine OpenBLAS threads only contend
-# (measured: a 30x30x30 box update 40x slower with threads under load). Set before numpy loads.
+# The pose-cell arrays are small: BLAS threads would only contend. Set before numpy loads.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
-import math
-import time
+import math  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from ratslam import RatSLAM, RatSLAMConfig
-from ratslam.pose_cells import PoseCells
-from ratslam.pose_cells_reference import FullGridPoseCells
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from streams import STREAMS  # noqa: E402
+
+from ratslam import RatSLAM, RatSLAMConfig  # noqa: E402
+from ratslam.pose_cells_reference import FullGridPoseCells  # noqa: E402
 
 
-def observation_stream(n_ticks: int):
-    """Inputs from the simulator (small_loop, 15 simulated minutes, seed 0)."""
-    from worlds import simulate
-
-    log = simulate("small_loop", duration=900.0, seed=0)
-    k = min(n_ticks, len(log))
-    return log.dt[:k], log.v_trans[:k], log.v_rot[:k], log.scene_id[:k]
+def make_slam(reference: bool = False, n_experiences: int = 0) -> RatSLAM:
+    slam = RatSLAM(RatSLAMConfig())
+    if reference:
+        slam.pose_cells = FullGridPoseCells(slam.config)
+    prefill_map(slam, n_experiences)
+    return slam
 
 
 def prefill_map(slam: RatSLAM, n_experiences: int, seed: int = 0) -> None:
@@ -64,78 +69,81 @@ def prefill_map(slam: RatSLAM, n_experiences: int, seed: int = 0) -> None:
     em.current = -1
 
 
-def make_slam(n_experiences: int, side: int = 60, reference: bool = False) -> RatSLAM:
-    cfg = RatSLAMConfig(nx=side, ny=side)
-    slam = RatSLAM(cfg)
-    if reference:
-        slam.pose_cells = FullGridPoseCells(cfg)
-    prefill_map(slam, n_experiences)
-    return slam
-
-
-def time_pipeline(stream, n_experiences: int, side: int = 60, reference: bool = False,
-                  warmup: int = 300, repeats: int = 3) -> float:
-    """Best steps/s of RatSLAM.step over the stream (after ``warmup`` untimed ticks)."""
-    dt, v, w, s = stream
+def steps_per_second(log, ticks: int, repeats: int, reference: bool = False, n_experiences: int = 0) -> float:
+    """Best steps/s of ``RatSLAM.step`` over the first ``ticks`` ticks of ``log``."""
+    dt, v, w, s = (np.asarray(a)[:ticks] for a in (log.dt, log.v_trans, log.v_rot, log.scene_id))
+    dt, v, w, s = dt.tolist(), v.tolist(), w.tolist(), s.tolist()
     best = 0.0
     for _ in range(repeats):
-        slam = make_slam(n_experiences, side, reference)
-        for k in range(warmup):
-            slam.step(dt[k], v[k], w[k], s[k])
-        t0 = time.perf_counter()
-        for k in range(warmup, len(dt)):
-            slam.step(dt[k], v[k], w[k], s[k])
-        best = max(best, (len(dt) - warmup) / (time.perf_counter() - t0))
-    return best
-
-
-def time_pose_cells(cls, stream, side: int = 60, repeats: int = 3) -> float:
-    """Best steps/s of the pose-cell update alone (odometry only)."""
-    dt, v, w, _ = stream
-    best = 0.0
-    for _ in range(repeats):
-        pc = cls(RatSLAMConfig(nx=side, ny=side))
+        slam = make_slam(reference, n_experiences)
         t0 = time.perf_counter()
         for k in range(len(dt)):
-            pc.step(v[k] * dt[k], w[k] * dt[k])
+            slam.step(dt[k], v[k], w[k], s[k])
         best = max(best, len(dt) / (time.perf_counter() - t0))
     return best
 
 
+def dense_step_ms() -> tuple[float, float]:
+    """One step with activity on every cell: box path vs full-grid reference (ms)."""
+    cfg = RatSLAMConfig()
+    rng = np.random.default_rng(0)
+    cells = np.stack(np.meshgrid(np.arange(cfg.nx), np.arange(cfg.ny), np.arange(cfg.n_theta),
+                                 indexing="ij"), -1).reshape(-1, 3)
+    energy = rng.uniform(0.5, 1.0, len(cells)) * 1e-3
+    out = []
+    for reference in (False, True):
+        best = math.inf
+        for _ in range(3):
+            slam = make_slam(reference=reference)
+            slam.pose_cells.inject(cells, energy)
+            t0 = time.perf_counter()
+            slam.pose_cells.step(0.04, 0.01)
+            best = min(best, time.perf_counter() - t0)
+        out.append(best * 1e3)
+    return out[0], out[1]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--ticks", type=int, default=2300, help="ticks per timed run (default 2300)")
+    ap.add_argument("--ticks", type=int, default=4000, help="ticks per stream for the box path (default 4000)")
+    ap.add_argument("--ref-ticks", type=int, default=400, help="ticks compared with the reference (default 400)")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--quick", action="store_true", help="fewer ticks and repeats")
+    ap.add_argument("--quick", action="store_true", help="fewer ticks, one repeat")
     args = ap.parse_args()
-    ticks, repeats = (800, 1) if args.quick else (args.ticks, args.repeats)
-    stream = observation_stream(ticks)
-    ref_stream = tuple(a[: max(300 + 100, ticks // 8)] for a in stream)
+    ticks, ref_ticks, repeats = (1000, 200, 1) if args.quick else (args.ticks, args.ref_ticks, args.repeats)
 
-    print(f"RatSLAM.step on small_loop input, {ticks} ticks, best of {repeats}")
-    fast_1k = time_pipeline(stream, 1000, repeats=repeats)
-    fast_20k = time_pipeline(stream, 20000, repeats=repeats)
-    ref_1k = time_pipeline(ref_stream, 1000, reference=True, repeats=1)
-    print(f"  60x60x36, 1,000 experiences : {fast_1k:8.0f} steps/s ({1e3 / fast_1k:.3f} ms/step)")
-    print(f"  60x60x36, 20,000 experiences: {fast_20k:8.0f} steps/s ({1e3 / fast_20k:.3f} ms/step)")
-    print(f"  full-grid reference pipeline, 1,000 experiences: {ref_1k:8.0f} steps/s")
-    print(f"  ratio windowed / full-grid (pipeline, 1,000 exp): {fast_1k / ref_1k:6.1f}x")
+    t0 = time.perf_counter()
+    warm = make_slam()
+    for k in range(5):
+        warm.step(0.14, 0.3, 0.1 * k, k % 2)          # loads (or compiles) the kernels
+    print(f"kernel warm-up (load or compile): {time.perf_counter() - t0:.2f} s")
 
-    pc_fast = time_pose_cells(PoseCells, stream, repeats=repeats)
-    pc_ref = time_pose_cells(FullGridPoseCells, ref_stream, repeats=1)
-    print(f"pose-cell update alone, 60x60x36: windowed {pc_fast:8.0f} steps/s, full grid {pc_ref:6.0f} "
-          f"steps/s, ratio {pc_fast / pc_ref:6.1f}x")
+    print(f"RatSLAM.step, default config 60x60x36, best of {repeats}")
+    print(f"  {'stream':16s} {'ticks':>6s} {'steps/s':>9s} | first {ref_ticks}: {'box':>7s} {'full grid':>9s} {'ratio':>6s}")
+    rates = {}
+    for name, make in STREAMS.items():
+        log = make()
+        n = min(ticks, len(log))
+        rate = steps_per_second(log, n, repeats)
+        box = steps_per_second(log, ref_ticks, repeats)
+        ref = steps_per_second(log, ref_ticks, 1, reference=True)
+        rates[name] = rate
+        print(f"  {name:16s} {n:6d} {rate:9.0f} | {box:18.0f} {ref:9.0f} {box / ref:5.1f}x", flush=True)
+    values = np.array(list(rates.values()))
+    worst = min(rates, key=rates.get)
+    print(f"  median over streams {np.median(values):.0f} steps/s; worst {worst} {rates[worst]:.0f} steps/s")
 
-    print("scaling with grid side (1,000 experiences; 36 heading cells):")
-    for side in (30, 60, 100):
-        fast = time_pipeline(stream, 1000, side=side, repeats=repeats)
-        ref = time_pipeline(ref_stream, 1000, side=side, reference=True, repeats=1)
-        print(f"  side {side:3d}: windowed {fast:8.0f} steps/s ({1e3 / fast:.3f} ms), full grid {ref:6.0f} "
-              f"steps/s ({1e3 / ref:.2f} ms), ratio {fast / ref:6.1f}x")
-    print("scaling with experience count (60x60x36):")
-    for n in (0, 1000, 5000, 20000, 50000):
-        fast = time_pipeline(stream, n, repeats=repeats)
-        print(f"  {n:6d} experiences: {fast:8.0f} steps/s ({1e3 / fast:.3f} ms/step)")
+    box_ms, ref_ms = dense_step_ms()
+    print(f"activity on every cell, one pose-cell step: box path {box_ms:.2f} ms, full grid {ref_ms:.2f} ms, "
+          f"ratio {ref_ms / box_ms:.1f}x")
+
+    print("scaling with experience count (small_loop stream, 60x60x36):")
+    log = STREAMS["small_loop"]()
+    base = None
+    for n_exp in (0, 1000, 5000, 20000) if not args.quick else (0, 5000):
+        rate = steps_per_second(log, min(ticks, 2000), repeats, n_experiences=n_exp)
+        base = base or rate
+        print(f"  {n_exp:6d} experiences: {rate:8.0f} steps/s ({1e3 / rate:.3f} ms/step, {rate / base:.2f}x of empty)")
 
 
 if __name__ == "__main__":

@@ -197,29 +197,42 @@ class PoseCells:
                 self._boxes.append(list(K.box_of_cells(np.ascontiguousarray(g[:, members]), energy[members], n)))
 
     def _merge_interacting(self) -> None:
-        """Merge boxes that are close enough to interact during one iteration."""
-        boxes = self._boxes
+        """Merge boxes that are close enough to interact during one iteration.
+
+        Boxes are grouped first (a group's covering box may reach further boxes, so grouping
+        repeats until no two groups interact), then each group is copied into one new box.
+        """
         n = [int(v) for v in self._n]
-        i = 0
-        while i < len(boxes):
-            j = i + 1
-            merged = False
-            while j < len(boxes):
-                (s1, a1), (s2, a2) = boxes[i], boxes[j]
-                if all(_ring_gap(int(s1[a]), a1.shape[a], int(s2[a]), a2.shape[a], n[a]) <= self._reach
-                       for a in range(3)):
-                    arcs = [_arc_union(int(s1[a]), a1.shape[a], int(s2[a]), a2.shape[a], n[a]) for a in range(3)]
-                    start = np.array([arc[0] for arc in arcs], dtype=np.int64)
-                    act = np.zeros(tuple(arc[1] for arc in arcs))
-                    K.rebox_add(act, start, a1, s1, self._n)
-                    K.rebox_add(act, start, a2, s2, self._n)
-                    boxes[i] = [start, act]
-                    del boxes[j]
-                    merged = True
-                else:
-                    j += 1
-            if not merged:
+        # per group: covering arcs (start, length) per axis, and member boxes
+        groups = [([(int(st[a]), act.shape[a]) for a in range(3)], [i]) for i, (st, act) in enumerate(self._boxes)]
+        changed = True
+        while changed and len(groups) > 1:
+            changed = False
+            i = 0
+            while i < len(groups):
+                j = i + 1
+                while j < len(groups):
+                    (ai, mi), (aj, mj) = groups[i], groups[j]
+                    if all(_ring_gap(ai[a][0], ai[a][1], aj[a][0], aj[a][1], n[a]) <= self._reach for a in range(3)):
+                        groups[i] = ([_arc_union(*ai[a], *aj[a], n[a]) for a in range(3)], mi + mj)
+                        del groups[j]
+                        changed = True
+                    else:
+                        j += 1
                 i += 1
+        if len(groups) == len(self._boxes):
+            return
+        boxes = []
+        for arcs, members in groups:
+            if len(members) == 1:
+                boxes.append(self._boxes[members[0]])
+                continue
+            start = np.array([arc[0] for arc in arcs], dtype=np.int64)
+            act = np.zeros(tuple(arc[1] for arc in arcs))
+            for m in members:
+                K.rebox_add(act, start, self._boxes[m][1], self._boxes[m][0], self._n)
+            boxes.append([start, act])
+        self._boxes = boxes
 
     # ------------------------------------------------------------------ dynamics
     def step(self, v_trans_dt: float, v_rot_dt: float) -> None:

@@ -33,14 +33,40 @@ class SceneObservations:
 
 
 class SceneLayout:
-    """The world's fixed assignment of scene numbers to scene cells."""
+    """The fixed assignment of scene numbers to scene cells, over a rectangle of the plane.
+
+    ``SceneLayout(world)`` covers a world (origin at 0, 0), with aliasing drawn among the cells
+    seen along its route network; :meth:`over_path` covers the bounding box of a recorded
+    trajectory (a real robot's ground truth), with the driven path as the route.
+    """
 
     def __init__(self, world: World):
-        s = world.scenes
+        self._build(world.scenes, (0.0, 0.0), world.size, world.edge_segments())
+
+    @classmethod
+    def over_path(cls, spec, x, y, margin: float = 2.0) -> "SceneLayout":
+        """A layout (:class:`~worlds.world.SceneSpec` ``spec``) over the bounding box, plus
+        ``margin`` metres, of the path ``x, y``; aliasing is drawn among the cells seen along the
+        path, as along a world's route network (look-alike rectangles are in path coordinates)."""
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        origin = (float(x.min()) - margin, float(y.min()) - margin)
+        size = (float(x.max()) - origin[0] + margin, float(y.max()) - origin[1] + margin)
+        # the path as segments between points about 0.5 m apart along it
+        along = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+        keep = np.concatenate(([0], np.flatnonzero(np.diff(np.floor(along / 0.5)) > 0) + 1))
+        pts = np.stack((x[keep], y[keep]), axis=1)
+        edges = np.stack((pts[:-1], pts[1:]), axis=1)
+        edges = edges[np.hypot(*(edges[:, 1] - edges[:, 0]).T) > 1e-9]
+        layout = cls.__new__(cls)
+        layout._build(spec, origin, size, edges)
+        return layout
+
+    def _build(self, s, origin, size, edges: np.ndarray) -> None:
         self.cell_size = s.cell_size
         self.sectors = s.heading_sectors
-        self.nx = int(np.ceil(world.size[0] / s.cell_size))
-        self.ny = int(np.ceil(world.size[1] / s.cell_size))
+        self.origin = (float(origin[0]), float(origin[1]))
+        self.nx = int(np.ceil(size[0] / s.cell_size))
+        self.ny = int(np.ceil(size[1] / s.cell_size))
         n_cells = self.nx * self.ny * self.sectors
         rng = np.random.default_rng(s.layout_seed)
 
@@ -48,8 +74,8 @@ class SceneLayout:
         numbers = rng.permutation(n_cells).astype(np.int64)
         cx, cy = self.cell_centres()
 
-        # Aliasing is defined over the cells the robot sees when driving the route network.
-        route_cells = self._route_cells(world.edge_segments())
+        # Aliasing is defined over the cells the robot sees when driving the route.
+        route_cells = self._route_cells(edges)
 
         for src_rect, dst_rect in s.lookalikes:
             self._copy_region(numbers, src_rect, dst_rect)
@@ -98,12 +124,13 @@ class SceneLayout:
     def cell_centres(self):
         """Centres (x, y) of the position cells, one per (ix, iy) in row-major ix*ny+iy order."""
         ix, iy = np.meshgrid(np.arange(self.nx), np.arange(self.ny), indexing="ij")
-        return ((ix.ravel() + 0.5) * self.cell_size, (iy.ravel() + 0.5) * self.cell_size)
+        return (self.origin[0] + (ix.ravel() + 0.5) * self.cell_size,
+                self.origin[1] + (iy.ravel() + 0.5) * self.cell_size)
 
     def cell_index(self, x, y, theta):
         """Scene-cell index for poses (vectorised)."""
-        ix = np.clip(np.floor(np.asarray(x) / self.cell_size).astype(np.int64), 0, self.nx - 1)
-        iy = np.clip(np.floor(np.asarray(y) / self.cell_size).astype(np.int64), 0, self.ny - 1)
+        ix = np.clip(np.floor((np.asarray(x) - self.origin[0]) / self.cell_size).astype(np.int64), 0, self.nx - 1)
+        iy = np.clip(np.floor((np.asarray(y) - self.origin[1]) / self.cell_size).astype(np.int64), 0, self.ny - 1)
         width = 2 * np.pi / self.sectors
         sector = np.floor(np.mod(np.asarray(theta) + width / 2, 2 * np.pi) / width).astype(np.int64) % self.sectors
         return (ix * self.ny + iy) * self.sectors + sector
@@ -111,8 +138,9 @@ class SceneLayout:
     def _copy_region(self, numbers, src, dst):
         """Cells in rectangle ``dst`` show the numbers of the cells at the same offset in ``src``."""
         cs = self.cell_size
-        sx0, sy0 = int(np.floor(src[0] / cs)), int(np.floor(src[1] / cs))
-        dx0, dy0, dx1, dy1 = (int(np.floor(v / cs)) for v in dst)
+        ox, oy = self.origin
+        sx0, sy0 = int(np.floor((src[0] - ox) / cs)), int(np.floor((src[1] - oy) / cs))
+        dx0, dy0, dx1, dy1 = (int(np.floor((v - o) / cs)) for v, o in zip(dst, (ox, oy, ox, oy)))
         for ix in range(dx0, min(dx1, self.nx)):
             for iy in range(dy0, min(dy1, self.ny)):
                 jx, jy = sx0 + ix - dx0, sy0 + iy - dy0
@@ -131,7 +159,7 @@ def observe_scenes(layout: SceneLayout, x, y, theta, rng: np.random.Generator,
 
     # Flicker: close to a border, sometimes the cell across it is reported.
     cs = layout.cell_size
-    fx, fy = np.mod(x, cs), np.mod(y, cs)
+    fx, fy = np.mod(x - layout.origin[0], cs), np.mod(y - layout.origin[1], cs)
     dist_x = np.minimum(fx, cs - fx)
     dist_y = np.minimum(fy, cs - fy)
     near_x = dist_x <= dist_y
