@@ -53,7 +53,8 @@ def _cmd_run(args) -> None:
 
     get_figure(args.figure)  # unknown names fail before anything starts
     out = run_figure(args.figure, out=args.out, seed=args.seed, duration=args.duration,
-                     show_progress=not args.quiet, recorder_factory=None if args.no_recording else recorder_factory)
+                     show_progress=not args.quiet, recorder_factory=None if args.no_recording else recorder_factory,
+                     workers=args.workers)
     _print_run_summary(out)
 
 
@@ -95,6 +96,16 @@ def _check_writable(path: Path) -> None:
         raise CliError(f"{path}: cannot create output directory ({e.strerror})") from None
     if path.is_dir():
         raise CliError(f"{path}: is a directory, expected a file name")
+
+
+def _workers(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
+    return v
 
 
 def _positive(text: str) -> float:
@@ -155,6 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, help="random seed (default: the figure's)")
     r.add_argument("--duration", type=_positive, help="simulated seconds (default: the figure's)")
     r.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    r.add_argument("--workers", type=_workers, help="processes for the figure's variants "
+                   "(default: one per variant, at most one per core; 1 = sequential, same output)")
     r.add_argument("--quiet", action="store_true", help="no progress output")
     r.set_defaults(func=_cmd_run)
 

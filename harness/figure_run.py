@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import multiprocessing
+import os
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -81,12 +84,18 @@ def _variant_world(world: World, variant: Variant) -> World:
     return dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
 
 
+def _pool_context():
+    """Worker start method: fork where available (no re-import, kernels already loaded)."""
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+
+
 def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, duration: float, seed: int,
-                 show_progress: bool, recorder_factory=None) -> dict:
+                 show_progress: bool, recorder_factory=None, redraw: bool | None = None) -> dict:
     world = _variant_world(world, variant)
     log = simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
     rs_cfg, pg_cfg = _configs(fig, variant)
-    progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress)
+    progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress, redraw=redraw)
     recorder = recorder_factory(run_dir, world, log, rs_cfg) if recorder_factory else None
     res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
     if recorder:
@@ -101,10 +110,28 @@ def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, dur
     return m
 
 
+def _variant_job(args) -> dict:
+    """One variant in a worker process (progress as plain lines: several bars would clash)."""
+    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory = args
+    return _run_variant(run_dir, get_figure(fig_name), variant, world, duration, seed, show_progress,
+                        recorder_factory, redraw=False)
+
+
+def default_workers(n_jobs: int) -> int:
+    """Processes for ``n_jobs`` independent runs: one per job, at most one per free core."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(n_jobs, cores))
+
+
 def run_figure(name: str, out=None, seed: int | None = None, duration: float | None = None,
-               show_progress: bool = True, recorder_factory=None, variants: tuple[str, ...] | None = None) -> Path:
+               show_progress: bool = True, recorder_factory=None, variants: tuple[str, ...] | None = None,
+               workers: int | None = None) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
-    always runs) into ``out`` (default ``reports/<name>``)."""
+    always runs) into ``out`` (default ``reports/<name>``).
+
+    The variants are independent runs: with ``workers`` > 1 (default: one process per variant,
+    at most one per core) they run in parallel processes; each is deterministic, so the output
+    is the same as a sequential run (``workers=1``) bit for bit, timings aside."""
     fig = get_figure(name)
     if variants is not None:
         unknown = set(variants) - {v.name for v in fig.variants}
@@ -116,13 +143,20 @@ def run_figure(name: str, out=None, seed: int | None = None, duration: float | N
     seed = fig.seed if seed is None else int(seed)
     duration = fig.duration if duration is None else float(duration)
     out = Path(out) if out else REPORTS_DIR / fig.name
+    workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
     with staged_directory(out) as stage:
-        variants = {}
+        jobs = []
         for i, variant in enumerate(fig.variants):
             vdir = stage if i == 0 else stage / "variants" / variant.name
             vdir.mkdir(parents=True, exist_ok=True)
-            variants[variant.name] = _run_variant(vdir, fig, variant, world, duration, seed, show_progress,
-                                                  recorder_factory)
+            jobs.append((vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory))
+        if workers > 1 and len(jobs) > 1:
+            # the figure travels by name: its claims are closures, which do not pickle
+            with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_pool_context()) as pool:
+                results = list(pool.map(_variant_job, jobs))
+        else:
+            results = [_run_variant(job[0], fig, *job[2:]) for job in jobs]
+        variants = {v.name: m for v, m in zip(fig.variants, results)}
         primary = variants[fig.primary.name]
         metrics = {
             "figure": {"name": fig.name, "title": fig.title, "notes": fig.notes},

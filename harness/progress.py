@@ -9,14 +9,17 @@ import time
 class Progress:
     """Progress over a known number of ticks, showing simulated time and speed.
 
-    On a terminal the bar redraws in place; otherwise it prints a line every 10%.
+    On a terminal the bar redraws in place; otherwise (or with ``redraw=False``, as when several
+    processes share the terminal) it prints a line every 10%.
     """
 
-    def __init__(self, total: int, label: str, dt: float | None = None, stream=None, enabled: bool = True):
+    def __init__(self, total: int, label: str, dt: float | None = None, stream=None, enabled: bool = True,
+                 redraw: bool | None = None):
         self.total, self.label, self.dt = max(1, total), label, dt
         self.stream = stream or sys.stderr
         self.enabled = enabled
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        # redraw in place on a terminal (None: when the stream is one); lines otherwise
+        self.tty = (hasattr(self.stream, "isatty") and self.stream.isatty()) if redraw is None else bool(redraw)
         self.start = time.perf_counter()
         self._last_decile = -1
 
