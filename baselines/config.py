@@ -240,6 +240,8 @@ class PoseGraphConfig:
     closure_candidate_window: int = 64
     closure_recent_tolerance: float = 0.0
     closure_early_tolerance: float = 0.0
+    closure_min_spacing: float = 0.0
+    closure_batch_keyframes: int = 1
 
     backend: str = "robust"
     estimator: str = "geman_mcclure"
@@ -282,7 +284,7 @@ class PoseGraphConfig:
             if not _is_real(value) or not math.isfinite(value) or value <= 0.0:
                 raise ValueError(f"{name}: must be a positive finite number, got {value!r}")
         for name in ("keyframe_min_distance", "closure_min_travel", "closure_recent_tolerance",
-                     "closure_early_tolerance",
+                     "closure_early_tolerance", "closure_min_spacing",
                      "isam2_relinearize_threshold", "isam2_bias_relinearize_threshold"):
             value = getattr(self, name)
             if not _is_real(value) or not math.isfinite(value) or value < 0.0:
@@ -303,7 +305,7 @@ class PoseGraphConfig:
             raise ValueError(
                 f"isam2_relinearize_skip: must be None or an integer >= 1, got {self.isam2_relinearize_skip!r}"
             )
-        for name in ("closure_max_candidates", "closure_candidate_window", "gnc_interval",
+        for name in ("closure_max_candidates", "closure_candidate_window", "gnc_interval", "closure_batch_keyframes",
                      "batch_max_iterations"):
             value = getattr(self, name)
             if not _is_int(value) or value < 1:

@@ -81,6 +81,9 @@ class PoseGraphSLAM:
         self._lc_provisional: list[bool] = []  # GNC: iSAM2 holds the robust stand-in
         self._lc_gnc_weight: list[float] = []
         self._keyframes_since_gnc = 0
+        self._pending_closures: list[tuple[int, gtsam.NonlinearFactor]] = []  # proposed, not yet in iSAM2
+        self._keyframes_since_flush = 0
+        self._last_closure_path = -math.inf
 
     # ------------------------------------------------------------------ step
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -162,10 +165,13 @@ class PoseGraphSLAM:
         self._graph.add(odo_factor)
         self._values.insert(X(j), guess)
 
-        closures = self._scenes.candidates(scene, self._kf_path, self._path,
-                                           (guess.x(), guess.y()), self._estimate_xy)
+        closures = []
+        if self._path - self._last_closure_path >= cfg.closure_min_spacing:
+            closures = self._scenes.candidates(scene, self._kf_path, self._path,
+                                               (guess.x(), guess.y()), self._estimate_xy)
         self._scenes.add(scene, j)
-        closure_factors = []
+        if closures:
+            self._last_closure_path = self._path
         for i in closures:
             factor = gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(), self._closure_noise)
             self._lc_i.append(i)
@@ -176,17 +182,24 @@ class PoseGraphSLAM:
             self._lc_provisional.append(False)
             self._lc_gnc_weight.append(math.nan)
             self._graph.add(factor)
-            closure_factors.append((len(self._lc_i) - 1, factor))
+            self._pending_closures.append((len(self._lc_i) - 1, factor))
         self._buffer = TickBuffer()
 
         if self._isam is None:
             self._latest = guess
             return
+        self._keyframes_since_flush += 1
+        flush = bool(self._pending_closures) and self._keyframes_since_flush >= cfg.closure_batch_keyframes
+        closure_factors = self._pending_closures if flush else []
         for c, factor in closure_factors:
             if cfg.backend == "gnc":
-                factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(j), gtsam.Pose2(), self._pending_noise)
+                factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(),
+                                                  self._pending_noise)
                 self._lc_provisional[c] = True
             new_factors.add(factor)
+        if flush:
+            self._pending_closures = []
+            self._keyframes_since_flush = 0
         # Constrain only the new keyframe (and the bias, which every odometry factor
         # touches) to the end of the elimination order.  iSAM2's default constrains every
         # key of the new factors, so the old end of each closure is dragged to the root

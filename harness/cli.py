@@ -47,23 +47,27 @@ def _cmd_simulate(args) -> None:
 
 
 def _cmd_run(args) -> None:
+    from .config_file import read_config_file
     from .figure_run import run_figure
     from .figures import get_figure
     from .recorder import recorder_factory
 
     get_figure(args.figure)  # unknown names fail before anything starts
+    config = read_config_file(args.config) if args.config else None
     out = run_figure(args.figure, out=args.out, seed=args.seed, duration=args.duration,
                      show_progress=not args.quiet, recorder_factory=None if args.no_recording else recorder_factory,
-                     workers=args.workers)
+                     workers=args.workers, config=config)
     _print_run_summary(out)
 
 
 def _cmd_replay(args) -> None:
+    from .config_file import read_config_file
     from .figure_run import replay
     from .recorder import recorder_factory
 
+    config = read_config_file(args.config) if args.config else None
     out = replay(args.log, args.out, show_progress=not args.quiet,
-                 recorder_factory=None if args.no_recording else recorder_factory)
+                 recorder_factory=None if args.no_recording else recorder_factory, config=config)
     _print_run_summary(out)
 
 
@@ -165,6 +169,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="run directory (default: reports/FIGURE)")
     r.add_argument("--seed", type=int, help="random seed (default: the figure's)")
     r.add_argument("--duration", type=_positive, help="simulated seconds (default: the figure's)")
+    r.add_argument("--config", help="TOML file with [ratslam] and [gtsam] tables of config fields, "
+                   "applied on top of each variant's configuration")
     r.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     r.add_argument("--workers", type=_workers, help="processes for the figure's variants "
                    "(default: one per variant, at most one per core; 1 = sequential, same output)")
@@ -174,6 +180,8 @@ def build_parser() -> argparse.ArgumentParser:
     rp = sub.add_parser("replay", help="replay an observation log (CSV) through both systems")
     rp.add_argument("log", help="observation log: t,dt,v_trans,v_rot,scene_id[,gt_x,gt_y,gt_theta,false_positive]")
     rp.add_argument("--out", required=True, help="run directory to write")
+    rp.add_argument("--config", help="TOML file with [ratslam] and [gtsam] tables of config fields "
+                    "(a run's own config.toml reproduces it)")
     rp.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     rp.add_argument("--quiet", action="store_true", help="no progress output")
     rp.set_defaults(func=_cmd_replay)

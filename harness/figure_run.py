@@ -20,6 +20,7 @@ from ratslam import RatSLAMConfig
 from worlds import ObservationLog, World, load_world, simulate
 
 from . import metrics as M
+from .config_file import ConfigOverrides, write_config_toml
 from .evaluate import evaluate_stream, room_laps
 from .figures import Figure, Variant, get_figure
 from .progress import Progress
@@ -91,10 +92,16 @@ def _pool_context():
 
 
 def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, duration: float, seed: int,
-                 show_progress: bool, recorder_factory=None, redraw: bool | None = None) -> dict:
+                 show_progress: bool, recorder_factory=None, config: ConfigOverrides | None = None,
+                 redraw: bool | None = None) -> dict:
     world = _variant_world(world, variant)
     log = simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
     rs_cfg, pg_cfg = _configs(fig, variant)
+    if config is not None:
+        rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+    write_config_toml(run_dir / "config.toml", rs_cfg, pg_cfg,
+                      f"Effective configuration of {fig.name}, variant {variant.name} (seed {seed}).\n"
+                      f"Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml")
     progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress, redraw=redraw)
     recorder = recorder_factory(run_dir, world, log, rs_cfg) if recorder_factory else None
     res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
@@ -112,9 +119,9 @@ def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, dur
 
 def _variant_job(args) -> dict:
     """One variant in a worker process (progress as plain lines: several bars would clash)."""
-    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory = args
+    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config = args
     return _run_variant(run_dir, get_figure(fig_name), variant, world, duration, seed, show_progress,
-                        recorder_factory, redraw=False)
+                        recorder_factory, config, redraw=False)
 
 
 def default_workers(n_jobs: int) -> int:
@@ -125,9 +132,10 @@ def default_workers(n_jobs: int) -> int:
 
 def run_figure(name: str, out=None, seed: int | None = None, duration: float | None = None,
                show_progress: bool = True, recorder_factory=None, variants: tuple[str, ...] | None = None,
-               workers: int | None = None) -> Path:
+               workers: int | None = None, config: ConfigOverrides | None = None) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
-    always runs) into ``out`` (default ``reports/<name>``).
+    always runs) into ``out`` (default ``reports/<name>``). ``config`` (from a configuration
+    file) is applied on top of each variant's own configuration.
 
     The variants are independent runs: with ``workers`` > 1 (default: one process per variant,
     at most one per core) they run in parallel processes; each is deterministic, so the output
@@ -149,7 +157,7 @@ def run_figure(name: str, out=None, seed: int | None = None, duration: float | N
         for i, variant in enumerate(fig.variants):
             vdir = stage if i == 0 else stage / "variants" / variant.name
             vdir.mkdir(parents=True, exist_ok=True)
-            jobs.append((vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory))
+            jobs.append((vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory, config))
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
             with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_pool_context()) as pool:
@@ -188,12 +196,19 @@ def evaluate_claims(fig: Figure, metrics: dict) -> list[dict]:
 
 
 def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
-           ratslam_config: RatSLAMConfig | None = None, gtsam_config: PoseGraphConfig | None = None) -> Path:
-    """Replay a user's observation log through both systems into run directory ``out``."""
+           ratslam_config: RatSLAMConfig | None = None, gtsam_config: PoseGraphConfig | None = None,
+           config: ConfigOverrides | None = None) -> Path:
+    """Replay a user's observation log through both systems into run directory ``out``
+    (``config``, from a configuration file, on top of the given or default configurations)."""
     log = ObservationLog.read_csv(log_path)
     rs_cfg, pg_cfg = ratslam_config or RatSLAMConfig(), gtsam_config or PoseGraphConfig()
+    if config is not None:
+        rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     out = Path(out)
     with staged_directory(out) as stage:
+        write_config_toml(stage / "config.toml", rs_cfg, pg_cfg,
+                          f"Effective configuration of the replay of {Path(log_path).name}.\n"
+                          f"Reproduce: ratslam-harness replay {Path(log_path).name} --config config.toml")
         progress = Progress(len(log), f"replay {Path(log_path).name}", float(np.median(log.dt)),
                             enabled=show_progress)
         recorder = recorder_factory(stage, None, log, rs_cfg) if recorder_factory else None
