@@ -242,6 +242,7 @@ class PoseGraphConfig:
     closure_early_tolerance: float = 0.0
     closure_min_spacing: float = 0.0
     closure_batch_keyframes: int = 1
+    closure_flush_distance: float = math.inf
 
     backend: str = "robust"
     estimator: str = "geman_mcclure"
@@ -289,6 +290,9 @@ class PoseGraphConfig:
             value = getattr(self, name)
             if not _is_real(value) or not math.isfinite(value) or value < 0.0:
                 raise ValueError(f"{name}: must be a non-negative finite number, got {value!r}")
+        if not _is_real(self.closure_flush_distance) or not self.closure_flush_distance > 0.0:
+            raise ValueError(f"closure_flush_distance: must be a positive number (inf: never), "
+                             f"got {self.closure_flush_distance!r}")
         if self.estimator_k is not None and (
             not _is_real(self.estimator_k) or not math.isfinite(self.estimator_k) or self.estimator_k <= 0.0
         ):

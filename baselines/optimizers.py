@@ -10,9 +10,11 @@ import numpy as np
 from .config import PoseGraphConfig
 
 
-def make_isam2(config: PoseGraphConfig) -> gtsam.ISAM2:
-    """iSAM2 with the configured relinearisation threshold and skip."""
+def make_isam2(config: PoseGraphConfig, factorization: str = "CHOLESKY") -> gtsam.ISAM2:
+    """iSAM2 with the configured relinearisation threshold and skip (``factorization``
+    "CHOLESKY", gtsam's default, or "QR", slower but robust to ill-conditioning)."""
     params = gtsam.ISAM2Params()
+    params.setFactorization(factorization)
     if config.estimate_yaw_bias:
         # Per-variable thresholds: poses ('x') as configured, the bias ('b') much finer,
         # since a bias delta of 0.1 rad/s would be a 6 deg/s error.

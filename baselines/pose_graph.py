@@ -80,6 +80,9 @@ class PoseGraphSLAM:
         self._lc_isam_index: list[int] = []  # index of the closure's factor in iSAM2, -1 if absent
         self._lc_provisional: list[bool] = []  # GNC: iSAM2 holds the robust stand-in
         self._lc_gnc_weight: list[float] = []
+        self._lc_isam_factor: list = []  # the factor iSAM2 holds for each closure (None if absent)
+        self._recoveries = 0  # iSAM2 rebuilds after gtsam refused an update
+        self._closures_dropped = 0  # closures left out because gtsam refused them even then
         self._keyframes_since_gnc = 0
         self._pending_closures: list[tuple[int, gtsam.NonlinearFactor]] = []  # proposed, not yet in iSAM2
         self._keyframes_since_flush = 0
@@ -137,7 +140,7 @@ class PoseGraphSLAM:
             self._graph.add(factors.at(n))
         self._values.insert(values)
         if self._isam is not None:
-            self._isam.update(factors, values)
+            self._update_isam([(factors.at(n), None) for n in range(factors.size())], values)
         self._latest = pose0
         self._scenes.add(scene, j)
         self._buffer = TickBuffer()
@@ -157,9 +160,7 @@ class PoseGraphSLAM:
             z = gtsam.Pose2(*integrate(dt, v, w))
             odo_factor = gtsam.BetweenFactorPose2(X(prev), X(j), z, odometry_noise(cov))
         guess = self._latest.compose(z)
-        new_factors = gtsam.NonlinearFactorGraph()
         new_values = gtsam.Values()
-        new_factors.add(odo_factor)
         new_values.insert(X(j), guess)
         self._known_inliers.append(self._graph.size())
         self._graph.add(odo_factor)
@@ -181,6 +182,7 @@ class PoseGraphSLAM:
             self._lc_isam_index.append(-1)
             self._lc_provisional.append(False)
             self._lc_gnc_weight.append(math.nan)
+            self._lc_isam_factor.append(None)
             self._graph.add(factor)
             self._pending_closures.append((len(self._lc_i) - 1, factor))
         self._buffer = TickBuffer()
@@ -189,14 +191,16 @@ class PoseGraphSLAM:
             self._latest = guess
             return
         self._keyframes_since_flush += 1
-        flush = bool(self._pending_closures) and self._keyframes_since_flush >= cfg.closure_batch_keyframes
+        flush = bool(self._pending_closures) and (self._keyframes_since_flush >= cfg.closure_batch_keyframes
+                                                  or self._disagrees(closures, guess))
         closure_factors = self._pending_closures if flush else []
+        tagged = [(odo_factor, None)]
         for c, factor in closure_factors:
             if cfg.backend == "gnc":
                 factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(),
                                                   self._pending_noise)
                 self._lc_provisional[c] = True
-            new_factors.add(factor)
+            tagged.append((factor, c))
         if flush:
             self._pending_closures = []
             self._keyframes_since_flush = 0
@@ -208,10 +212,7 @@ class PoseGraphSLAM:
         last.insert2(X(j), 1)
         if cfg.estimate_yaw_bias:
             last.insert2(BIAS_KEY, 1)
-        result = self._isam.update(new_factors, new_values, [], last)
-        indices = result.getNewFactorsIndices()
-        for n, (c, _) in enumerate(closure_factors):
-            self._lc_isam_index[c] = indices[1 + n]
+        self._update_isam(tagged, new_values, last=last)
         if closure_factors:
             for _ in range(cfg.isam2_extra_updates):
                 self._isam.update()
@@ -220,6 +221,91 @@ class PoseGraphSLAM:
             if self._keyframes_since_gnc >= cfg.gnc_interval and self._has_pending():
                 self._gnc_verify()
         self._refresh_latest()
+
+    # ------------------------------------------------------------------ iSAM2 updates
+    def _update_isam(self, tagged: list, values: gtsam.Values, remove=(), last=None) -> None:
+        """One iSAM2 update with ``tagged`` new factors ``(factor, closure index or None)``.
+
+        If gtsam refuses it as an indeterminate (numerically ill-posed) system, iSAM2 is rebuilt
+        from everything it held (at its linearisation point) with QR factorisation, which does
+        not square the condition number as Cholesky does, and the update is applied to that;
+        if even that is refused, this update's closures are left out. Both are counted
+        (``isam2_recoveries``, ``closures_dropped``).
+        """
+        graph = gtsam.NonlinearFactorGraph()
+        for factor, _ in tagged:
+            graph.add(factor)
+        try:
+            if last is None:
+                result = self._isam.update(graph, values, list(remove))
+            else:
+                result = self._isam.update(graph, values, list(remove), last)
+            indices = list(result.getNewFactorsIndices())
+        except RuntimeError as e:
+            if "Indeterminate" not in str(e):
+                raise
+            indices = self._recover(tagged, values)
+        for (factor, c), idx in zip(tagged, indices):
+            if c is not None:
+                self._lc_isam_index[c] = idx
+                self._lc_isam_factor[c] = factor
+
+    def _recover(self, tagged: list, values: gtsam.Values) -> list[int]:
+        """Rebuild iSAM2 (QR) with what it held plus ``tagged``; returns the indices of ``tagged``."""
+        self._recoveries += 1
+        theta = self._isam.getLinearizationPoint()          # the estimate so far
+        n_new_inliers = sum(1 for _, c in tagged if c is None)
+        held = [(self._graph.at(g), None) for g in self._known_inliers[:len(self._known_inliers) - n_new_inliers]]
+        held += [(self._lc_isam_factor[c], c) for c in range(len(self._lc_i))
+                 if self._lc_isam_index[c] >= 0 and self._lc_isam_factor[c] is not None]
+        for attempt in range(2):
+            if attempt == 1:                                  # still refused: without this update's closures
+                dropped = [c for _, c in tagged if c is not None]
+                self._closures_dropped += len(dropped)
+                for c in dropped:
+                    self._lc_isam_index[c] = -1
+                    self._lc_provisional[c] = False
+                tagged = [(f, c) for f, c in tagged if c is None]
+            everything = held + tagged
+            graph = gtsam.NonlinearFactorGraph()
+            for factor, _ in everything:
+                graph.add(factor)
+            initial = gtsam.Values()
+            for key in graph.keyVector():
+                if initial.exists(key):
+                    continue
+                source = theta if theta.exists(key) else values
+                if source.exists(key):
+                    initial.insert(key, source.atPose2(key) if gtsam.Symbol(key).chr() == ord("x")
+                                   else source.atVector(key))
+            isam = make_isam2(self._config, factorization="QR")
+            try:
+                result = isam.update(graph, initial)
+            except RuntimeError as e:
+                if "Indeterminate" not in str(e) or attempt == 1:
+                    raise
+                continue
+            self._isam = isam
+            indices = list(result.getNewFactorsIndices())
+            for (factor, c), idx in zip(held, indices):
+                if c is not None:
+                    self._lc_isam_index[c] = idx
+            return indices[len(held):] + [-1] * (len(tagged) - len(indices[len(held):]))
+        raise AssertionError("unreachable")
+
+    def _disagrees(self, closures: list[int], guess: gtsam.Pose2) -> bool:
+        """Whether a new closure contradicts the current estimate (Mahalanobis distance of its
+        residual above ``closure_flush_distance``): such a closure is added at once, not batched."""
+        limit = self._config.closure_flush_distance
+        if not closures or not math.isfinite(limit):
+            return False
+        poses_i = np.array([self._estimate_pose(i) for i in closures])
+        poses_j = np.repeat([[guess.x(), guess.y(), guess.theta()]], len(closures), axis=0)
+        return bool(np.any(closure_mahalanobis(self._config, poses_i, poses_j) > limit))
+
+    def _estimate_pose(self, i: int) -> tuple[float, float, float]:
+        p = self._isam.calculateEstimatePose2(X(i))
+        return p.x(), p.y(), p.theta()
 
     def _refresh_latest(self) -> None:
         j = len(self._kf_ticks) - 1
@@ -253,7 +339,6 @@ class PoseGraphSLAM:
         """Run GNC on the whole graph; iSAM2 keeps exactly the closures it accepts."""
         self._keyframes_since_gnc = 0
         self._run_gnc(self._current_values())
-        add = gtsam.NonlinearFactorGraph()
         added: list[int] = []
         remove: list[int] = []
         for c, g in enumerate(self._lc_graph_index):
@@ -264,12 +349,9 @@ class PoseGraphSLAM:
                 self._lc_isam_index[c] = -1
                 self._lc_provisional[c] = False
             if inlier and self._lc_isam_index[c] < 0:
-                add.add(self._graph.at(g))
                 added.append(c)
         if added or remove:
-            result = self._isam.update(add, gtsam.Values(), remove)
-            for c, idx in zip(added, result.getNewFactorsIndices()):
-                self._lc_isam_index[c] = idx
+            self._update_isam([(self._graph.at(self._lc_graph_index[c]), c) for c in added], gtsam.Values(), remove)
             for _ in range(self._config.isam2_extra_updates):
                 self._isam.update()
 
@@ -386,6 +468,16 @@ class PoseGraphSLAM:
     def closure_accepted(self) -> np.ndarray:
         """(L,) inlier flag: weight >= ``config.accept_weight``."""
         return self.closure_weights >= self._config.accept_weight
+
+    @property
+    def isam2_recoveries(self) -> int:
+        """How often gtsam refused an update as indeterminate and iSAM2 was rebuilt (QR)."""
+        return self._recoveries
+
+    @property
+    def closures_dropped(self) -> int:
+        """Closures left out because gtsam refused the update even after a rebuild."""
+        return self._closures_dropped
 
     @property
     def num_keyframes(self) -> int:

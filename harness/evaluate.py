@@ -43,6 +43,8 @@ def summarize_stream(res: StreamResult, log: ObservationLog) -> dict:
         "links": int(len(rs.links)),
         "keyframes": int(len(res.gtsam.keyframe_poses)),
         "loop_closures_proposed": int(len(np.asarray(res.gtsam.loop_closures).reshape(-1, 2))),
+        "isam2_recoveries": int(res.gtsam.isam2_recoveries),
+        "closures_dropped": int(res.gtsam.closures_dropped),
         "timing": _timing(res, log),
     }
 
@@ -96,6 +98,8 @@ def evaluate_stream(res: StreamResult, log: ObservationLog, gtsam: bool = True) 
     if gtsam:
         out["loop_closure"] = _closure_quality(pg, gt)
         out["keyframes"] = int(len(pg.keyframe_poses))
+        out["isam2_recoveries"] = int(pg.isam2_recoveries)
+        out["closures_dropped"] = int(pg.closures_dropped)
     return out
 
 

@@ -1,0 +1,49 @@
+"""The pose graph on a real vehicle's odometry (CMU Plaza 1, shipped with gtsam): it never
+crashes on valid input. On this log gtsam refuses an iSAM2 update as an indeterminate system
+(Cholesky, near keyframe 204, while driving at 1.5 m/s: one-tick keyframes at scene onsets
+have a lateral sigma of 0.2 mm beside millimetres along track); the pose graph rebuilds iSAM2
+with QR factorisation and goes on."""
+
+import numpy as np
+import pytest
+
+from baselines import PoseGraphConfig, PoseGraphSLAM
+from harness import metrics as M
+from harness.runner import dead_reckon
+from worlds.real_data import load_plaza
+
+
+@pytest.fixture(scope="module")
+def plaza1_start():
+    return load_plaza("plaza1", duration=300.0)
+
+
+def test_real_log_that_gtsam_refuses_is_recovered_not_crashed(plaza1_start):
+    log = plaza1_start
+    pg = PoseGraphSLAM(PoseGraphConfig())
+    online = np.zeros((len(log), 3))
+    for k, row in enumerate(zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())):
+        pg.step(*row)
+        online[k] = pg.pose
+    pg.finalize()
+    assert pg.isam2_recoveries >= 1          # gtsam did refuse an update on this log (measured: 1)
+    assert pg.closures_dropped == 0
+    assert np.all(np.isfinite(pg.keyframe_poses))
+    gt = log.ground_truth()
+    # the recovered estimate is a real estimate: no worse than dead reckoning plus a margin
+    # (measured over these 5 minutes: online 0.45 m, odometry 0.40 m)
+    assert M.ate_rmse(online, gt) <= 1.5 * M.ate_rmse(dead_reckon(log), gt) + 0.2
+
+
+def test_plaza_import_follows_the_observation_log_contract(plaza1_start):
+    log = plaza1_start
+    assert len(log) == len(log.dt) == len(log.scene_id) and log.has_ground_truth
+    assert np.all(log.dt > 0) and np.all(np.diff(log.t) > 0)
+    seen = log.scene_id[log.scene_id >= 0]
+    assert len(np.unique(seen)) > 50 and (log.scene_id == -1).any()
+    # odometry and ground truth agree on the heading convention: integrating the vehicle's own
+    # odometry from the ground-truth start stays near the ground truth over the first minute
+    gt = log.ground_truth()
+    n = int(60 / np.median(log.dt))
+    dr = dead_reckon(log, start=(gt[0, 0], gt[0, 1], gt[0, 2]))
+    assert np.hypot(*(dr[:n, :2] - gt[:n, :2]).T).max() < 2.0      # measured 0.81 m
