@@ -4,8 +4,9 @@ Per tick: integrate the wheel odometry on SE(2); take a keyframe every
 ``keyframe_distance`` metres, ``keyframe_angle`` radians or at a scene onset;
 join consecutive keyframes by an odometry between-factor; when a keyframe's scene
 number was seen at earlier keyframes, add a loop-closure factor to the nearest
-such sighting; optimise online with iSAM2 (robust, Gaussian or GNC-verified
-closures).  The SLAM never sees ground truth.
+such sighting (closures are handed to iSAM2 a few keyframes at a time, at once if
+one contradicts the estimate); optimise online with iSAM2 (robust, Gaussian or
+GNC-verified closures).  The SLAM never sees ground truth.
 """
 
 from __future__ import annotations
@@ -86,7 +87,6 @@ class PoseGraphSLAM:
         self._keyframes_since_gnc = 0
         self._pending_closures: list[tuple[int, gtsam.NonlinearFactor]] = []  # proposed, not yet in iSAM2
         self._keyframes_since_flush = 0
-        self._last_closure_path = -math.inf
 
     # ------------------------------------------------------------------ step
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -166,13 +166,9 @@ class PoseGraphSLAM:
         self._graph.add(odo_factor)
         self._values.insert(X(j), guess)
 
-        closures = []
-        if self._path - self._last_closure_path >= cfg.closure_min_spacing:
-            closures = self._scenes.candidates(scene, self._kf_path, self._path,
-                                               (guess.x(), guess.y()), self._estimate_xy)
+        closures = self._scenes.candidates(scene, self._kf_path, self._path,
+                                           (guess.x(), guess.y()), self._estimate_xy)
         self._scenes.add(scene, j)
-        if closures:
-            self._last_closure_path = self._path
         for i in closures:
             factor = gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(), self._closure_noise)
             self._lc_i.append(i)
@@ -193,17 +189,8 @@ class PoseGraphSLAM:
         self._keyframes_since_flush += 1
         flush = bool(self._pending_closures) and (self._keyframes_since_flush >= cfg.closure_batch_keyframes
                                                   or self._disagrees(closures, guess))
-        closure_factors = self._pending_closures if flush else []
-        tagged = [(odo_factor, None)]
-        for c, factor in closure_factors:
-            if cfg.backend == "gnc":
-                factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(),
-                                                  self._pending_noise)
-                self._lc_provisional[c] = True
-            tagged.append((factor, c))
-        if flush:
-            self._pending_closures = []
-            self._keyframes_since_flush = 0
+        closure_factors = self._take_pending() if flush else []
+        tagged = [(odo_factor, None)] + closure_factors
         # Constrain only the new keyframe (and the bias, which every odometry factor
         # touches) to the end of the elimination order.  iSAM2's default constrains every
         # key of the new factors, so the old end of each closure is dragged to the root
@@ -221,6 +208,27 @@ class PoseGraphSLAM:
             if self._keyframes_since_gnc >= cfg.gnc_interval and self._has_pending():
                 self._gnc_verify()
         self._refresh_latest()
+
+    def _flush_closures(self) -> None:
+        """Hand the closures still waiting for their batch to iSAM2 (end of run)."""
+        if self._isam is None or not self._pending_closures:
+            return
+        self._update_isam(self._take_pending(), gtsam.Values())
+        self._refresh_latest()
+
+    def _take_pending(self) -> list:
+        """The waiting closures as (factor, closure index) for iSAM2 (GNC: the robust stand-in
+        until GNC judges them); the batch starts anew."""
+        tagged = []
+        for c, factor in self._pending_closures:
+            if self._config.backend == "gnc":
+                factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(),
+                                                  self._pending_noise)
+                self._lc_provisional[c] = True
+            tagged.append((factor, c))
+        self._pending_closures = []
+        self._keyframes_since_flush = 0
+        return tagged
 
     # ------------------------------------------------------------------ iSAM2 updates
     def _update_isam(self, tagged: list, values: gtsam.Values, remove=(), last=None) -> None:
@@ -368,6 +376,7 @@ class PoseGraphSLAM:
         cfg = self._config
         if not self._kf_ticks:
             return
+        self._flush_closures()
         if cfg.final_batch:
             initial = self._current_values()
             if cfg.backend == "gnc":
