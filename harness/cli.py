@@ -7,6 +7,8 @@ import signal
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from worlds import ObservationLogError, WorldFileError, list_worlds, load_world, simulate
 from worlds.plot import plot_run
 
@@ -69,6 +71,19 @@ def _cmd_replay(args) -> None:
     out = replay(args.log, args.out, show_progress=not args.quiet,
                  recorder_factory=None if args.no_recording else recorder_factory, config=config)
     _print_run_summary(out)
+
+
+def _cmd_import_plaza(args) -> None:
+    from worlds.real_data import load_plaza
+
+    out = Path(args.out)
+    _check_writable(out)
+    log = load_plaza(args.name, seed=args.seed, fp_rate=args.fp, duration=args.duration)
+    log.write_csv(out)
+    speed = float(np.median(np.abs(log.v_trans)))
+    print(f"wrote {out} ({len(log)} ticks, {log.t[-1] - log.t[0] + log.dt[0]:.0f} s, median speed "
+          f"{speed:.2f} m/s at {1.0 / float(np.median(log.dt)):.0f} Hz; scene numbers synthesised from "
+          f"the ground truth)")
 
 
 def _cmd_report(args) -> None:
@@ -185,6 +200,17 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     rp.add_argument("--quiet", action="store_true", help="no progress output")
     rp.set_defaults(func=_cmd_replay)
+
+    imp = sub.add_parser("import", help="write an observation log (CSV) from recorded robot data")
+    isub = imp.add_subparsers(dest="source", required=True, parser_class=_OneLineParser)
+    pz = isub.add_parser("plaza", help="a CMU Plaza data set shipped with gtsam: real wheel odometry, "
+                                       "scene numbers synthesised from its ground truth")
+    pz.add_argument("name", choices=("plaza1", "plaza2"), help="data set")
+    pz.add_argument("--out", required=True, help="observation log to write (CSV)")
+    pz.add_argument("--seed", type=int, default=0, help="seed of flicker and false positives (default 0)")
+    pz.add_argument("--fp", type=_rate, help="false-positive scene rate per tick (default 0.002)")
+    pz.add_argument("--duration", type=_positive, help="keep only the first S seconds")
+    pz.set_defaults(func=_cmd_import_plaza)
 
     rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run directory")
     rep.add_argument("dir", help="run directory")
