@@ -22,12 +22,29 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, inline="always")
-def _wrap_range(length, lout, n, c):
-    """Wrap counts ``w`` for which some ``i`` in [0, length) lands in [0, lout) at i + c + w·n."""
-    w_lo = -((length - 1 + c) // n)
-    w_hi = (lout - 1 - c) // n
-    return w_lo, w_hi
+@njit(cache=True)
+def _runs(kw, off, p, length, lout, n):
+    """The contiguous runs of operator row ``p``: rows (tap weight index d, delta, i0, i1) meaning
+    input cells ``i0 <= i < i1`` add ``kw[p, d] * in[i]`` to output cell ``i + delta``.
+
+    Input ``i`` lands at ``(i + off + d) mod n``; splitting each tap's inputs by how many times
+    they wrap (``w``: ``i + off + d + w·n`` in [0, lout)) leaves plain index offsets.
+    """
+    n_taps = kw.shape[1]
+    runs = np.empty((n_taps * (3 + (length + lout) // n), 4), dtype=np.int64)
+    r = 0
+    for d in range(n_taps):
+        if kw[p, d] == 0.0:
+            continue
+        c = off[p] + d
+        for w in range(-((length - 1 + c) // n), (lout - 1 - c) // n + 1):
+            delta = c + w * n
+            i0 = max(0, -delta)
+            i1 = min(length, lout - delta)
+            if i0 < i1:
+                runs[r, 0], runs[r, 1], runs[r, 2], runs[r, 3] = d, delta, i0, i1
+                r += 1
+    return runs[:r]
 
 
 @njit(cache=True)
@@ -36,33 +53,26 @@ def op_mid(inp, off, kw, lout, n):
 
     ``off`` (P,) and ``kw`` (P, W) hold one offset and one set of taps per index of axis 0
     (P = A), or one for all (P = 1). Returns a new (A, lout, C) array. Rows along axis 2 are
-    contiguous in both arrays, so each tap is one multiply-add over a contiguous block.
+    contiguous in both arrays, so each run is one multiply-add over a contiguous block.
     """
     a_len, length, c_len = inp.shape
-    n_taps = kw.shape[1]
     per_layer = kw.shape[0] > 1
     out = np.zeros((a_len, lout, c_len))
     flat_in = inp.reshape(a_len, length * c_len)
     flat_out = out.reshape(a_len, lout * c_len)
+    runs = _runs(kw, off, 0, length, lout, n)
     for a in range(a_len):
         p = a if per_layer else 0
-        for d in range(n_taps):
-            k = kw[p, d]
-            if k == 0.0:
-                continue
-            c = off[p] + d
-            w_lo, w_hi = _wrap_range(length, lout, n, c)
-            for w in range(w_lo, w_hi + 1):
-                delta = c + w * n
-                i0 = max(0, -delta)
-                i1 = min(length, lout - delta)
-                if i0 >= i1:
-                    continue
-                cnt = (i1 - i0) * c_len
-                dst = flat_out[a, (i0 + delta) * c_len:(i0 + delta) * c_len + cnt]
-                src = flat_in[a, i0 * c_len:i0 * c_len + cnt]
-                for q in range(cnt):            # row views + range index: vectorised
-                    dst[q] += k * src[q]
+        if per_layer and a > 0:
+            runs = _runs(kw, off, p, length, lout, n)
+        for r in range(runs.shape[0]):
+            k = kw[p, runs[r, 0]]
+            delta, i0, i1 = runs[r, 1], runs[r, 2], runs[r, 3]
+            cnt = (i1 - i0) * c_len
+            dst = flat_out[a, (i0 + delta) * c_len:(i0 + delta) * c_len + cnt]
+            src = flat_in[a, i0 * c_len:i0 * c_len + cnt]
+            for q in range(cnt):            # row views + range index: vectorised
+                dst[q] += k * src[q]
     return out
 
 
@@ -71,29 +81,21 @@ def op_last(inp, off, kw, lout, n):
     """Apply a 1D operator along the last axis of ``inp`` (A, B, L) (taps per index of axis 0,
     or one set for all, as in :func:`op_mid`). Returns a new (A, B, lout) array."""
     a_len, b_len, length = inp.shape
-    n_taps = kw.shape[1]
     per_layer = kw.shape[0] > 1
     out = np.zeros((a_len, b_len, lout))
+    runs = _runs(kw, off, 0, length, lout, n)
     for a in range(a_len):
         p = a if per_layer else 0
-        for d in range(n_taps):
-            k = kw[p, d]
-            if k == 0.0:
-                continue
-            c = off[p] + d
-            w_lo, w_hi = _wrap_range(length, lout, n, c)
-            for w in range(w_lo, w_hi + 1):
-                delta = c + w * n
-                i0 = max(0, -delta)
-                i1 = min(length, lout - delta)
-                if i0 >= i1:
-                    continue
-                cnt = i1 - i0
-                for b in range(b_len):
-                    dst = out[a, b, i0 + delta:i1 + delta]
-                    src = inp[a, b, i0:i1]
-                    for q in range(cnt):
-                        dst[q] += k * src[q]
+        if per_layer and a > 0:
+            runs = _runs(kw, off, p, length, lout, n)
+        for r in range(runs.shape[0]):
+            k = kw[p, runs[r, 0]]
+            delta, i0, i1 = runs[r, 1], runs[r, 2], runs[r, 3]
+            for b in range(b_len):
+                dst = out[a, b, i0 + delta:i1 + delta]
+                src = inp[a, b, i0:i1]
+                for q in range(i1 - i0):
+                    dst[q] += k * src[q]
     return out
 
 
