@@ -207,8 +207,8 @@ def main() -> None:
     stream = stream_timing()
     print("whole streams, default configuration:")
     hard = hard_stream_timing()
-    targets = [1000, 2000] if args.quick else [1000, 10000]
-    print("per keyframe, default configuration (closures batched, 16-sighting window):")
+    targets = [1000, 2000] if args.quick else [1000, 3000, 10000]
+    print("per keyframe, default configuration (closures batched, 12-sighting window):")
     keyframes = keyframe_timing(targets, PoseGraphConfig())
     old_targets = [1000, 2000] if args.quick else [1000, 3000]
     print("per keyframe, every closure at once from a 64-sighting window (the previous default):")
