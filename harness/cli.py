@@ -86,6 +86,21 @@ def _cmd_import_plaza(args) -> None:
           f"the ground truth)")
 
 
+def _cmd_import_tum(args) -> None:
+    from worlds.real_data import PLAZA_SCENES
+    from worlds.trajectory_import import import_tum
+
+    out = Path(args.out)
+    _check_writable(out)
+    log = import_tum(args.odometry, ground_truth=args.gt, labels=args.labels,
+                     synthesise=PLAZA_SCENES if args.synthesise else None, label_max_age=args.label_max_age,
+                     seed=args.seed)
+    log.write_csv(out)
+    seen = int((log.scene_id >= 0).sum())
+    print(f"wrote {out} ({len(log)} ticks, {seen} with a scene number"
+          f"{', ground truth' if log.has_ground_truth else ''})")
+
+
 def _cmd_report(args) -> None:
     from .report import write_report
 
@@ -211,6 +226,20 @@ def build_parser() -> argparse.ArgumentParser:
     pz.add_argument("--fp", type=_rate, help="false-positive scene rate per tick (default 0.002)")
     pz.add_argument("--duration", type=_positive, help="keep only the first S seconds")
     pz.set_defaults(func=_cmd_import_plaza)
+
+    tm = isub.add_parser("tum", help="TUM trajectories (t x y z qx qy qz qw): odometry, optional ground "
+                                     "truth, and place labels (t,scene_id CSV) or synthesised scene numbers")
+    tm.add_argument("odometry", help="odometry trajectory (TUM)")
+    tm.add_argument("--out", required=True, help="observation log to write (CSV)")
+    tm.add_argument("--gt", help="ground-truth trajectory (TUM), interpolated at the odometry's times")
+    lab = tm.add_mutually_exclusive_group(required=True)
+    lab.add_argument("--labels", help="place labels: CSV with header t,scene_id, in time order")
+    lab.add_argument("--synthesise", action="store_true",
+                     help="scene numbers from the ground truth by the scene model (2 m cells, 4 sectors)")
+    tm.add_argument("--label-max-age", type=_positive,
+                    help="a label holds for this long, s (default: two median tick lengths)")
+    tm.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
+    tm.set_defaults(func=_cmd_import_tum)
 
     rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run directory")
     rep.add_argument("dir", help="run directory")
