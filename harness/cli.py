@@ -101,6 +101,21 @@ def _cmd_import_tum(args) -> None:
           f"{', ground truth' if log.has_ground_truth else ''})")
 
 
+def _cmd_import_rosbag(args) -> None:
+    from worlds.bag_import import import_bag
+    from worlds.real_data import PLAZA_SCENES
+
+    out = Path(args.out)
+    _check_writable(out)
+    log = import_bag(args.bag, args.odom, ground_truth_topic=args.gt, label_topic=args.labels,
+                     synthesise=PLAZA_SCENES if args.synthesise else None, twist=args.twist,
+                     label_max_age=args.label_max_age, seed=args.seed)
+    log.write_csv(out)
+    seen = int((log.scene_id >= 0).sum())
+    print(f"wrote {out} ({len(log)} ticks, {seen} with a scene number"
+          f"{', ground truth' if log.has_ground_truth else ''})")
+
+
 def _cmd_report(args) -> None:
     from .report import write_report
 
@@ -240,6 +255,22 @@ def build_parser() -> argparse.ArgumentParser:
                     help="a label holds for this long, s (default: two median tick lengths)")
     tm.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
     tm.set_defaults(func=_cmd_import_tum)
+
+    rb = isub.add_parser("rosbag", help="a ROS 1 or ROS 2 bag: nav_msgs/Odometry, optional ground truth, and "
+                                        "an integer place-label topic or synthesised scene numbers")
+    rb.add_argument("bag", help="bag file (ROS 1) or bag directory (ROS 2)")
+    rb.add_argument("--odom", required=True, help="odometry topic (nav_msgs/Odometry)")
+    rb.add_argument("--out", required=True, help="observation log to write (CSV)")
+    rb.add_argument("--gt", help="ground-truth topic (nav_msgs/Odometry or geometry_msgs/PoseStamped)")
+    rbl = rb.add_mutually_exclusive_group(required=True)
+    rbl.add_argument("--labels", help="place-label topic (std_msgs integer, field data)")
+    rbl.add_argument("--synthesise", action="store_true",
+                     help="scene numbers from the ground truth by the scene model (2 m cells, 4 sectors)")
+    rb.add_argument("--twist", action="store_true", help="odometry from the messages' twist, not pose differences")
+    rb.add_argument("--label-max-age", type=_positive,
+                    help="a label holds for this long, s (default: two median tick lengths)")
+    rb.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
+    rb.set_defaults(func=_cmd_import_rosbag)
 
     rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run directory")
     rep.add_argument("dir", help="run directory")
