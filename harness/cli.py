@@ -95,6 +95,10 @@ def _cmd_import_tum(args) -> None:
     log = import_tum(args.odometry, ground_truth=args.gt, labels=args.labels,
                      synthesise=PLAZA_SCENES if args.synthesise else None, label_max_age=args.label_max_age,
                      seed=args.seed)
+    _write_imported(log, out)
+
+
+def _write_imported(log, out: Path) -> None:
     log.write_csv(out)
     seen = int((log.scene_id >= 0).sum())
     print(f"wrote {out} ({len(log)} ticks, {seen} with a scene number"
@@ -110,10 +114,7 @@ def _cmd_import_rosbag(args) -> None:
     log = import_bag(args.bag, args.odom, ground_truth_topic=args.gt, label_topic=args.labels,
                      synthesise=PLAZA_SCENES if args.synthesise else None, twist=args.twist,
                      label_max_age=args.label_max_age, seed=args.seed)
-    log.write_csv(out)
-    seen = int((log.scene_id >= 0).sum())
-    print(f"wrote {out} ({len(log)} ticks, {seen} with a scene number"
-          f"{', ground truth' if log.has_ground_truth else ''})")
+    _write_imported(log, out)
 
 
 def _cmd_report(args) -> None:
@@ -191,6 +192,17 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+def _label_options(parser, labels_help: str) -> None:
+    """Place labels given (``--labels``) or synthesised from the ground truth, and their options."""
+    group = parser.add_mutually_exclusive_group(required=True)
+    group.add_argument("--labels", help=labels_help)
+    group.add_argument("--synthesise", action="store_true",
+                       help="scene numbers from the ground truth by the scene model (2 m cells, 4 sectors)")
+    parser.add_argument("--label-max-age", type=_positive,
+                        help="a label holds for this long, s (default: two median tick lengths)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _OneLineParser(prog="ratslam-harness",
                        description="RatSLAM experience mapping beside a GTSAM pose graph, on simulated worlds.")
@@ -247,13 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
     tm.add_argument("odometry", help="odometry trajectory (TUM)")
     tm.add_argument("--out", required=True, help="observation log to write (CSV)")
     tm.add_argument("--gt", help="ground-truth trajectory (TUM), interpolated at the odometry's times")
-    lab = tm.add_mutually_exclusive_group(required=True)
-    lab.add_argument("--labels", help="place labels: CSV with header t,scene_id, in time order")
-    lab.add_argument("--synthesise", action="store_true",
-                     help="scene numbers from the ground truth by the scene model (2 m cells, 4 sectors)")
-    tm.add_argument("--label-max-age", type=_positive,
-                    help="a label holds for this long, s (default: two median tick lengths)")
-    tm.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
+    _label_options(tm, "place labels: CSV with header t,scene_id, in time order")
     tm.set_defaults(func=_cmd_import_tum)
 
     rb = isub.add_parser("rosbag", help="a ROS 1 or ROS 2 bag: nav_msgs/Odometry, optional ground truth, and "
@@ -262,14 +268,8 @@ def build_parser() -> argparse.ArgumentParser:
     rb.add_argument("--odom", required=True, help="odometry topic (nav_msgs/Odometry)")
     rb.add_argument("--out", required=True, help="observation log to write (CSV)")
     rb.add_argument("--gt", help="ground-truth topic (nav_msgs/Odometry or geometry_msgs/PoseStamped)")
-    rbl = rb.add_mutually_exclusive_group(required=True)
-    rbl.add_argument("--labels", help="place-label topic (std_msgs integer, field data)")
-    rbl.add_argument("--synthesise", action="store_true",
-                     help="scene numbers from the ground truth by the scene model (2 m cells, 4 sectors)")
     rb.add_argument("--twist", action="store_true", help="odometry from the messages' twist, not pose differences")
-    rb.add_argument("--label-max-age", type=_positive,
-                    help="a label holds for this long, s (default: two median tick lengths)")
-    rb.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
+    _label_options(rb, "place-label topic (std_msgs integer, field data)")
     rb.set_defaults(func=_cmd_import_rosbag)
 
     rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run directory")

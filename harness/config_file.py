@@ -19,7 +19,7 @@ from pathlib import Path
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
-from worlds.observation_log import atomic_write_text
+from worlds.observation_log import atomic_write_text, read_text
 
 TABLES = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 
@@ -89,12 +89,7 @@ def _typed(path, table: str, key: str, value, kind: type):
 def read_config_file(path) -> ConfigOverrides:
     """Read and validate a configuration file (types here, values when applied)."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise ConfigFileError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise ConfigFileError(f"{path}: cannot be read ({e})") from None
+    text = read_text(path, ConfigFileError)
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:

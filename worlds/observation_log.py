@@ -72,13 +72,7 @@ class ObservationLog:
     def read_csv(cls, path) -> "ObservationLog":
         """Read and validate a log written by anyone (simulator or user)."""
         path = Path(path)
-        try:
-            text = path.read_text()
-        except FileNotFoundError:
-            raise ObservationLogError(f"{path}: file not found") from None
-        except (OSError, UnicodeDecodeError) as e:
-            raise ObservationLogError(f"{path}: cannot be read ({e})") from None
-        return _parse(path, text)
+        return _parse(path, read_text(path, ObservationLogError))
 
 
 def _format_column(name: str, values: np.ndarray) -> list[str]:
@@ -165,6 +159,17 @@ def publish(tmp, path) -> None:
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)
     os.replace(tmp, path)
+
+
+def read_text(path, error: type[Exception]) -> str:
+    """A text file's contents; a missing or unreadable file raises ``error`` with one line."""
+    path = Path(path)
+    try:
+        return path.read_text()
+    except FileNotFoundError:
+        raise error(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise error(f"{path}: cannot be read ({e})") from None
 
 
 def atomic_write_text(path, text: str) -> Path:

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .geometry import wrap_angle
-from .observation_log import ObservationLog
+from .observation_log import ObservationLog, read_text
 from .real_data import labelled_log
 from .world import SceneSpec
 
@@ -34,12 +34,7 @@ class TrajectoryImportError(ValueError):
 
 
 def _read_rows(path: Path, columns: int, what: str) -> np.ndarray:
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise TrajectoryImportError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise TrajectoryImportError(f"{path}: cannot be read ({e})") from None
+    text = read_text(path, TrajectoryImportError)
     rows = []
     for number, line in enumerate(text.splitlines(), start=1):
         line = line.split("#", 1)[0].strip()
@@ -80,12 +75,7 @@ def read_tum(path) -> np.ndarray:
 def read_labels(path) -> np.ndarray:
     """Place labels (m, 2) ``t, scene_id`` from a CSV with header ``t,scene_id``."""
     path = Path(path)
-    try:
-        lines = path.read_text().splitlines()
-    except FileNotFoundError:
-        raise TrajectoryImportError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise TrajectoryImportError(f"{path}: cannot be read ({e})") from None
+    lines = read_text(path, TrajectoryImportError).splitlines()
     header = [h.strip() for h in lines[0].split(",")] if lines else []
     if header != ["t", "scene_id"]:
         raise TrajectoryImportError(f"{path}: line 1: expected the header 't,scene_id', got {','.join(header)!r}")
