@@ -1,6 +1,7 @@
 """From one stream's results and its ground truth to the metrics dictionary of a run.
 
-Ground truth enters here, after both systems have run, and only here.
+Ground truth enters the metrics here, after both systems have run (the recorder and the plots
+draw it too); neither system ever sees it.
 """
 
 from __future__ import annotations

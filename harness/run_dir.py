@@ -1,4 +1,5 @@
-"""The run directory contract: staged writes, provenance, metrics.json and TUM trajectories.
+"""The run directory contract: staged writes, provenance and metrics.json (the TUM trajectories
+are written by :func:`harness.metrics.write_tum`).
 
 A run is written into a hidden staging directory next to its destination and moved into place
 only when complete, so an interrupted run never leaves a half-written report behind.

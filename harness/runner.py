@@ -17,7 +17,9 @@ from worlds import ObservationLog
 
 
 def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """Integrate the logged odometry (midpoint rule, as the systems do): poses (N, 3) after each tick."""
+    """Integrate the logged odometry: poses (N, 3) after each tick, each tick's forward motion taken
+    along its midpoint heading (the simulator's odometry model; RatSLAM's experience map and the
+    pose graph integrate the same ticks their own way)."""
     dtheta = log.v_rot * log.dt
     theta_end = start[2] + np.cumsum(dtheta)
     mid = theta_end - dtheta / 2

@@ -8,7 +8,7 @@ no X server), opens the file, waits until it has loaded, moves the time cursor t
 agree (the viewer fetches data lazily after the cursor moves). The viewer renders with Vulkan;
 on a machine without a GPU, Mesa's software driver is needed (Debian:
 ``apt-get install -y mesa-vulkan-drivers``). The viewer also runs under Xvfb
-(``apt-get install -y xvfb``; see ``../shared/DESIGN.md``), but the headless mode is used here
+(``apt-get install -y xvfb``), but the headless mode is used here
 because it can wait for the data: ``rerun FILE --screenshot-to`` shoots after a fixed number of
 frames, before a large recording has arrived.
 

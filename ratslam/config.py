@@ -45,7 +45,7 @@ class RatSLAMConfig:
         mean refines the strongest cell into the peak.
       pi_bias_deg_s: constant added to the rotational velocity used by the pose cells' path
         integration only (experience transitions keep the wheel odometry). This is the paper's
-        Figs 8-10 manipulation (reading (a) in DESIGN.md); 0 = off.
+        Figs 8-10 manipulation (the bias in path integration only, as the paper did); 0 = off.
       snap_cells: a tick whose peak moves further than this (wrap-aware Euclidean distance in
         cell units) is reported as a snap.
 

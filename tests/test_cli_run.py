@@ -1,4 +1,4 @@
-"""``ratslam-harness run``, ``replay`` and ``report`` end to end (DESIGN.md CLI and run-directory
+"""``ratslam-harness run``, ``replay`` and ``report`` end to end (the CLI and run-directory
 contracts), and their one-line errors that leave nothing half-written."""
 
 import json

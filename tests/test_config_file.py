@@ -1,5 +1,5 @@
 """Configuration files (``--config FILE.toml``): round trip, one-line errors, and a run's own
-``config.toml`` reproducing it bit for bit (DESIGN.md run-directory and CLI contracts)."""
+``config.toml`` reproducing it bit for bit (the run-directory and CLI contracts)."""
 
 import json
 import subprocess

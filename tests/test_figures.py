@@ -67,7 +67,7 @@ def test_paper_claim_holds(figure_runs, figure, claim):
 
 @pytest.mark.xdist_group("fig8")
 def test_run_directory_contract(figure_runs):
-    """DESIGN.md run-directory contract: metrics with provenance, TUM files, report, panels."""
+    """The run-directory contract: metrics with provenance, TUM files, report, panels."""
     metrics, out = figure_runs("fig8")
     for name in ("ground_truth", "odometry", "ratslam", "gtsam"):
         lines = [ln for ln in (out / "trajectories" / f"{name}.tum").read_text().splitlines()
