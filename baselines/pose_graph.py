@@ -81,7 +81,6 @@ class PoseGraphSLAM:
         self._lc_isam_index: list[int] = []  # index of the closure's factor in iSAM2, -1 if absent
         self._lc_provisional: list[bool] = []  # GNC: iSAM2 holds the robust stand-in
         self._lc_gnc_weight: list[float] = []
-        self._lc_isam_factor: list = []  # the factor iSAM2 holds for each closure (None if absent)
         self._recoveries = 0  # iSAM2 rebuilds after gtsam refused an update
         self._closures_dropped = 0  # closures left out because gtsam refused them even then
         self._keyframes_since_gnc = 0
@@ -178,7 +177,6 @@ class PoseGraphSLAM:
             self._lc_isam_index.append(-1)
             self._lc_provisional.append(False)
             self._lc_gnc_weight.append(math.nan)
-            self._lc_isam_factor.append(None)
             self._graph.add(factor)
             self._pending_closures.append((len(self._lc_i) - 1, factor))
         self._buffer = TickBuffer()
@@ -220,15 +218,19 @@ class PoseGraphSLAM:
         """The waiting closures as (factor, closure index) for iSAM2 (GNC: the robust stand-in
         until GNC judges them); the batch starts anew."""
         tagged = []
-        for c, factor in self._pending_closures:
-            if self._config.backend == "gnc":
-                factor = gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(),
-                                                  self._pending_noise)
-                self._lc_provisional[c] = True
-            tagged.append((factor, c))
+        for c, _ in self._pending_closures:
+            self._lc_provisional[c] = self._config.backend == "gnc"
+            tagged.append((self._isam_closure_factor(c), c))
         self._pending_closures = []
         self._keyframes_since_flush = 0
         return tagged
+
+    def _isam_closure_factor(self, c: int):
+        """The factor iSAM2 holds for closure ``c``: GNC's robust stand-in while the closure is
+        provisional, else the closure as in the graph."""
+        if self._lc_provisional[c]:
+            return gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(), self._pending_noise)
+        return self._graph.at(self._lc_graph_index[c])
 
     # ------------------------------------------------------------------ iSAM2 updates
     def _update_isam(self, tagged: list, values: gtsam.Values, remove=(), last=None) -> None:
@@ -253,10 +255,9 @@ class PoseGraphSLAM:
             if "Indeterminate" not in str(e):
                 raise
             indices = self._recover(tagged, values)
-        for (factor, c), idx in zip(tagged, indices):
+        for (_, c), idx in zip(tagged, indices):
             if c is not None:
                 self._lc_isam_index[c] = idx
-                self._lc_isam_factor[c] = factor
 
     def _recover(self, tagged: list, values: gtsam.Values) -> list[int]:
         """Rebuild iSAM2 (QR) with what it held plus ``tagged``; returns the indices of ``tagged``."""
@@ -264,8 +265,7 @@ class PoseGraphSLAM:
         theta = self._isam.getLinearizationPoint()          # the estimate so far
         n_new_inliers = sum(1 for _, c in tagged if c is None)
         held = [(self._graph.at(g), None) for g in self._known_inliers[:len(self._known_inliers) - n_new_inliers]]
-        held += [(self._lc_isam_factor[c], c) for c in range(len(self._lc_i))
-                 if self._lc_isam_index[c] >= 0 and self._lc_isam_factor[c] is not None]
+        held += [(self._isam_closure_factor(c), c) for c in range(len(self._lc_i)) if self._lc_isam_index[c] >= 0]
         for attempt in range(2):
             if attempt == 1:                                  # still refused: without this update's closures
                 dropped = [c for _, c in tagged if c is not None]
@@ -298,7 +298,7 @@ class PoseGraphSLAM:
             for (factor, c), idx in zip(held, indices):
                 if c is not None:
                     self._lc_isam_index[c] = idx
-            return indices[len(held):] + [-1] * (len(tagged) - len(indices[len(held):]))
+            return indices[len(held):]                    # for ``tagged`` as it now stands
         raise AssertionError("unreachable")
 
     def _disagrees(self, closures: list[int], guess: gtsam.Pose2) -> bool:
@@ -307,12 +307,13 @@ class PoseGraphSLAM:
         limit = self._config.closure_flush_distance
         if not closures or not math.isfinite(limit):
             return False
-        poses_i = np.array([self._estimate_pose(i) for i in closures])
+        poses_i = np.array([self._estimate_pose2(i) for i in closures])
         poses_j = np.repeat([[guess.x(), guess.y(), guess.theta()]], len(closures), axis=0)
         return bool(np.any(closure_mahalanobis(self._config, poses_i, poses_j) > limit))
 
-    def _estimate_pose(self, i: int) -> tuple[float, float, float]:
-        p = self._isam.calculateEstimatePose2(X(i))
+    def _estimate_pose2(self, i: int) -> tuple[float, float, float]:
+        """Current estimate of keyframe ``i`` (its odometry guess when offline)."""
+        p = self._isam.calculateEstimatePose2(X(i)) if self._isam is not None else self._values.atPose2(X(i))
         return p.x(), p.y(), p.theta()
 
     def _refresh_latest(self) -> None:
@@ -322,8 +323,7 @@ class PoseGraphSLAM:
             self._bias = float(self._isam.calculateEstimateVector(BIAS_KEY)[0])
 
     def _estimate_xy(self, i: int) -> tuple[float, float]:
-        p = self._isam.calculateEstimatePose2(X(i)) if self._isam is not None else self._values.atPose2(X(i))
-        return p.x(), p.y()
+        return self._estimate_pose2(i)[:2]
 
     # ------------------------------------------------------------------ GNC
     def _has_pending(self) -> bool:

@@ -103,19 +103,10 @@ def op_last(inp, off, kw, lout, n):
 def _window(p, n):
     """Local range (lo, length) of a box axis holding every True entry of projection ``p``.
     A box that spans the whole ring may hold them across its local end: then the whole axis."""
-    length = p.shape[0]
-    if length < n:
-        lo, hi = -1, -1
-        for i in range(length):
-            if p[i]:
-                if lo < 0:
-                    lo = i
-                hi = i
-        return lo, hi - lo + 1
     s, ln = cover_arc(p, 0, n)
-    if s + ln <= length:
+    if s + ln <= p.shape[0]:
         return s, ln
-    return 0, length
+    return 0, p.shape[0]
 
 
 @njit(cache=True)

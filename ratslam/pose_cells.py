@@ -12,8 +12,9 @@ The network wraps on every axis. One iteration (``step``) is, in order:
 
 After global inhibition nearly every cell is exactly zero, so the network stores only
 wrap-aware bounding boxes around the non-zero cells (one per packet; boxes close enough to
-interact are merged before each iteration) and applies each linear operator as a small matrix
-per axis (all kernels are separable Gaussians). The full grid is materialised only when asked
+interact are merged before each iteration) and applies each linear operator along one axis at a
+time (all kernels are separable Gaussians), compiled in :mod:`ratslam.pose_cell_kernels`. The
+full grid is materialised only when asked
 for (:attr:`PoseCells.activity`). The result equals the same update run over the whole grid
 (:mod:`ratslam.pose_cells_reference`) to rounding (tested).
 
@@ -22,14 +23,10 @@ Internally the local array is laid out (θ', x', y'); public coordinates are (x'
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from . import pose_cell_kernels as K
 from .config import RatSLAMConfig
-
-_TWO_PI = 2.0 * math.pi
 
 
 def gaussian_kernel(sigma: float, radius: int) -> np.ndarray:
@@ -37,6 +34,14 @@ def gaussian_kernel(sigma: float, radius: int) -> np.ndarray:
     d = np.arange(-radius, radius + 1, dtype=float)
     k = np.exp(-0.5 * (d / sigma) ** 2)
     return k / k.sum()
+
+
+def axis_kernels(config: RatSLAMConfig) -> tuple[tuple, tuple]:
+    """Excitation and inhibition kernels per axis (θ', x', y'): heading has its own widths."""
+    k_exc = gaussian_kernel(config.excite_sigma, config.excite_radius)
+    k_inh = gaussian_kernel(config.inhibit_sigma, config.inhibit_radius)
+    return ((gaussian_kernel(config.excite_sigma_theta, config.excite_radius), k_exc, k_exc),
+            (gaussian_kernel(config.inhibit_sigma_theta, config.inhibit_radius), k_inh, k_inh))
 
 
 def _ring_gap(s1: int, l1: int, s2: int, l2: int, n: int) -> int:
@@ -71,14 +76,10 @@ class PoseCells:
     def __init__(self, config: RatSLAMConfig, start_cell: tuple[int, int, int] | None = None):
         self.config = config
         self._n = np.array([config.n_theta, config.nx, config.ny], dtype=np.int64)  # (θ, x, y)
-        k_exc = gaussian_kernel(config.excite_sigma, config.excite_radius)
-        k_inh = gaussian_kernel(config.inhibit_sigma, config.inhibit_radius)
-        # per axis (θ, x, y): heading may use its own widths
-        self._k_exc = (gaussian_kernel(config.excite_sigma_theta, config.excite_radius), k_exc, k_exc)
-        self._k_inh = (gaussian_kernel(config.inhibit_sigma_theta, config.inhibit_radius), k_inh, k_inh)
-        # the same kernels as one-row tap tables for the compiled operators
-        self._taps_exc = tuple(np.ascontiguousarray(k[None, :]) for k in self._k_exc)
-        self._taps_inh = tuple(np.ascontiguousarray(k[None, :]) for k in self._k_inh)
+        # per-axis kernels as one-row tap tables for the compiled operators
+        k_exc, k_inh = axis_kernels(config)
+        self._taps_exc = tuple(np.ascontiguousarray(k[None, :]) for k in k_exc)
+        self._taps_inh = tuple(np.ascontiguousarray(k[None, :]) for k in k_inh)
         self._off_spread = np.zeros(1, dtype=np.int64)
         self._off_within = np.array([-config.inhibit_radius], dtype=np.int64)
         # boxes closer than this (empty cells, on every axis) interact within one iteration

@@ -13,7 +13,7 @@ import numpy as np
 from scipy import ndimage
 
 from .config import RatSLAMConfig
-from .pose_cells import gaussian_kernel
+from .pose_cells import axis_kernels
 
 _TWO_PI = 2.0 * math.pi
 
@@ -23,10 +23,7 @@ class FullGridPoseCells:
 
     def __init__(self, config: RatSLAMConfig, start_cell: tuple[int, int, int] | None = None):
         self.config = config
-        k_exc = gaussian_kernel(config.excite_sigma, config.excite_radius)
-        k_inh = gaussian_kernel(config.inhibit_sigma, config.inhibit_radius)
-        self._k_exc = (gaussian_kernel(config.excite_sigma_theta, config.excite_radius), k_exc, k_exc)
-        self._k_inh = (gaussian_kernel(config.inhibit_sigma_theta, config.inhibit_radius), k_inh, k_inh)
+        self._k_exc, self._k_inh = axis_kernels(config)
         if start_cell is None:
             start_cell = (config.nx // 2, config.ny // 2, 0)
         self._act = np.zeros((config.n_theta, config.nx, config.ny))  # (θ, x, y)
