@@ -215,11 +215,15 @@ class PoseGraphSLAM:
         self._refresh_latest()
 
     def _take_pending(self) -> list:
-        """The waiting closures as (factor, closure index) for iSAM2 (GNC: the robust stand-in
-        until GNC judges them); the batch starts anew."""
+        """The waiting closures as (factor, closure index) for iSAM2; the batch starts anew.
+        GNC: a closure not judged yet goes in as the robust stand-in; one GNC already judged (while
+        it waited) goes in as an inlier or not at all."""
         tagged = []
         for c, _ in self._pending_closures:
-            self._lc_provisional[c] = self._config.backend == "gnc"
+            judged = not math.isnan(self._lc_gnc_weight[c])
+            if self._config.backend == "gnc" and judged and self._lc_gnc_weight[c] < self._config.accept_weight:
+                continue
+            self._lc_provisional[c] = self._config.backend == "gnc" and not judged
             tagged.append((self._isam_closure_factor(c), c))
         self._pending_closures = []
         self._keyframes_since_flush = 0
@@ -344,22 +348,24 @@ class PoseGraphSLAM:
         return result
 
     def _gnc_verify(self) -> None:
-        """Run GNC on the whole graph; iSAM2 keeps exactly the closures it accepts."""
+        """Run GNC on the whole graph; iSAM2 keeps exactly the closures it accepts. Closures still
+        waiting for their batch are left to it: the flush hands them over as GNC judged them."""
         self._keyframes_since_gnc = 0
         self._run_gnc(self._current_values())
+        waiting = {c for c, _ in self._pending_closures}
         added: list[int] = []
         remove: list[int] = []
-        for c, g in enumerate(self._lc_graph_index):
+        for c in range(len(self._lc_i)):
             inlier = self._lc_gnc_weight[c] >= self._config.accept_weight
             present = self._lc_isam_index[c] >= 0
             if present and (not inlier or self._lc_provisional[c]):
                 remove.append(self._lc_isam_index[c])
                 self._lc_isam_index[c] = -1
                 self._lc_provisional[c] = False
-            if inlier and self._lc_isam_index[c] < 0:
+            if inlier and self._lc_isam_index[c] < 0 and c not in waiting:
                 added.append(c)
         if added or remove:
-            self._update_isam([(self._graph.at(self._lc_graph_index[c]), c) for c in added], gtsam.Values(), remove)
+            self._update_isam([(self._isam_closure_factor(c), c) for c in added], gtsam.Values(), remove)
             for _ in range(self._config.isam2_extra_updates):
                 self._isam.update()
 
