@@ -21,8 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .observation_log import ObservationLog
-from .real_data import labelled_log
-from .trajectory_import import _interpolate_poses, labels_at, odometry_from_tum
+from .trajectory_import import _interpolate_poses, assemble_log, odometry_from_tum
 from .world import SceneSpec
 
 ODOMETRY = "nav_msgs/msg/Odometry"
@@ -118,13 +117,5 @@ def import_bag(bag, odometry_topic: str, ground_truth_topic: str | None = None, 
         labels = _labels(reader, bag, label_topic) if label_topic is not None else None
     finally:
         reader.close()
-    if synthesise is not None:
-        if gt is None:
-            raise BagImportError("ground truth: synthesised scene numbers need a ground-truth topic")
-        return labelled_log(t, dt, v, w, gt[:, 0], gt[:, 1], gt[:, 2], synthesise, seed)
-    age = 2.0 * float(np.median(dt)) if label_max_age is None else float(label_max_age)
-    scene = labels_at(labels, t, age, slack=0.5 * float(np.median(dt)))
-    if gt is None:
-        return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene)
-    return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene, gt_x=gt[:, 0], gt_y=gt[:, 1],
-                          gt_theta=gt[:, 2], false_positive=np.zeros(len(t), dtype=bool))
+    return assemble_log(t, dt, v, w, gt, labels, synthesise, label_max_age, seed,
+                        "ground truth: synthesised scene numbers need a ground-truth topic", BagImportError)

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .geometry import wrap_angle
 from .observation_log import ObservationLog
 from .scenes import SceneLayout, observe_scenes
 from .world import SceneSpec
@@ -54,7 +55,7 @@ def heading_points_backwards(x, y, theta, min_step: float = 0.05) -> bool:
     moving = np.hypot(dx, dy) > min_step
     if not moving.any():
         return False
-    err = np.angle(np.exp(1j * (np.arctan2(dy, dx) - np.asarray(theta)[:-1])))[moving]
+    err = wrap_angle(np.arctan2(dy, dx) - np.asarray(theta)[:-1])[moving]
     return bool(np.mean(np.abs(err) > math.pi / 2) > 0.5)
 
 
@@ -89,7 +90,7 @@ def load_plaza(name: str, scenes: SceneSpec = PLAZA_SCENES, seed: int = 0, fp_ra
     if not np.all(dt > 0):
         raise ValueError(f"{path}: GT: time stamps are not strictly increasing")
     theta = gt[:, 3] + (math.pi if heading_points_backwards(gt[:, 1], gt[:, 2], gt[:, 3]) else 0.0)
-    theta = np.angle(np.exp(1j * theta))
+    theta = wrap_angle(theta)
     if fp_rate is not None:
         scenes = replace(scenes, false_positive_rate=float(fp_rate))
     if duration is not None:

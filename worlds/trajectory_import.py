@@ -138,6 +138,24 @@ def labels_at(labels: np.ndarray, t: np.ndarray, max_age: float, slack: float = 
     return out
 
 
+def assemble_log(t, dt, v, w, gt: np.ndarray | None, labels: np.ndarray | None, synthesise: SceneSpec | None,
+                 label_max_age: float | None, seed: int, gt_missing: str,
+                 error: type[Exception] = TrajectoryImportError) -> ObservationLog:
+    """The observation log of imported ticks: ``labels`` (m, 2) of ``t, scene_id`` held to the
+    ticks, or scene numbers synthesised from the ground truth ``gt`` (n, 3) (``error(gt_missing)``
+    is raised when it is absent)."""
+    if synthesise is not None:
+        if gt is None:
+            raise error(gt_missing)
+        return labelled_log(t, dt, v, w, gt[:, 0], gt[:, 1], gt[:, 2], synthesise, seed)
+    age = 2.0 * float(np.median(dt)) if label_max_age is None else float(label_max_age)
+    scene = labels_at(labels, t, age, slack=0.5 * float(np.median(dt)))
+    if gt is None:
+        return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene)
+    return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene, gt_x=gt[:, 0], gt_y=gt[:, 1],
+                          gt_theta=gt[:, 2], false_positive=np.zeros(len(t), dtype=bool))
+
+
 def import_tum(odometry, ground_truth=None, labels=None, synthesise: SceneSpec | None = None,
                label_max_age: float | None = None, seed: int = 0) -> ObservationLog:
     """An observation log from a TUM odometry trajectory, with place labels from ``labels``
@@ -145,16 +163,6 @@ def import_tum(odometry, ground_truth=None, labels=None, synthesise: SceneSpec |
     if (labels is None) == (synthesise is None):
         raise TrajectoryImportError("labels: give either a label CSV or ask for synthesised scene numbers")
     t, dt, v, w = odometry_from_tum(read_tum(odometry))
-    gt = None
-    if ground_truth is not None:
-        gt = _interpolate_poses(read_tum(ground_truth), t, ground_truth)
-    if synthesise is not None:
-        if gt is None:
-            raise TrajectoryImportError("ground truth: synthesised scene numbers need a ground-truth trajectory")
-        return labelled_log(t, dt, v, w, gt[:, 0], gt[:, 1], gt[:, 2], synthesise, seed)
-    age = 2.0 * float(np.median(dt)) if label_max_age is None else float(label_max_age)
-    scene = labels_at(read_labels(labels), t, age, slack=0.5 * float(np.median(dt)))
-    if gt is None:
-        return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene)
-    return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene, gt_x=gt[:, 0], gt_y=gt[:, 1],
-                          gt_theta=gt[:, 2], false_positive=np.zeros(len(t), dtype=bool))
+    gt = None if ground_truth is None else _interpolate_poses(read_tum(ground_truth), t, ground_truth)
+    return assemble_log(t, dt, v, w, gt, None if labels is None else read_labels(labels), synthesise,
+                        label_max_age, seed, "ground truth: synthesised scene numbers need a ground-truth trajectory")
