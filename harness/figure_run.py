@@ -21,6 +21,7 @@ from worlds import ObservationLog, World, load_world, simulate
 
 from . import metrics as M
 from .config_file import ConfigOverrides, write_config_toml
+from .scale import derive_configs
 from .evaluate import evaluate_stream, room_laps
 from .figures import Figure, Variant, get_figure
 from .progress import Progress
@@ -199,15 +200,21 @@ def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
            ratslam_config: RatSLAMConfig | None = None, gtsam_config: PoseGraphConfig | None = None,
            config: ConfigOverrides | None = None) -> Path:
     """Replay a user's observation log through both systems into run directory ``out``
-    (``config``, from a configuration file, on top of the given or default configurations)."""
+    (``config``, from a configuration file, on top of the given configurations or, where none is
+    given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
+    and labels; the simulator's own streams get exactly the defaults)."""
     log = ObservationLog.read_csv(log_path)
-    rs_cfg, pg_cfg = ratslam_config or RatSLAMConfig(), gtsam_config or PoseGraphConfig()
+    derived_rs, derived_pg, derivation = derive_configs(log)
+    rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
+    if ratslam_config is not None and gtsam_config is not None:
+        derivation = "Configurations given by the caller (nothing derived from the log)."
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     out = Path(out)
     with staged_directory(out) as stage:
         write_config_toml(stage / "config.toml", rs_cfg, pg_cfg,
                           f"Effective configuration of the replay of {Path(log_path).name}.\n"
+                          f"{derivation}\n"
                           f"Reproduce: ratslam-harness replay {Path(log_path).name} --config config.toml")
         progress = Progress(len(log), f"replay {Path(log_path).name}", float(np.median(log.dt)),
                             enabled=show_progress)
@@ -218,6 +225,7 @@ def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
         write_stream_outputs(stage, log, res)
         m = evaluate_stream(res, log)
         m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg)}
+        m["derived_scale"] = derivation
         metrics = {"figure": None, "title": f"replay of {Path(log_path).name}", "log": str(log_path),
                    "duration_s": float(log.t[-1]), "variants": {"replay": m},
                    "provenance": provenance(log=str(log_path))}
