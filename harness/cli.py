@@ -24,7 +24,9 @@ def _cmd_list(args) -> None:
 
     print("figures:")
     for fig in FIGURES.values():
-        print(f"  {fig.name:<7} {fig.title} [{fig.world}, {fig.duration / 60:g} min]")
+        source = fig.world or f"real log {fig.real_log}"
+        length = "whole log" if fig.duration is None else f"{fig.duration / 60:g} min"
+        print(f"  {fig.name:<7} {fig.title} [{source}, {length}]")
     print("worlds:")
     for name in list_worlds():
         w = load_world(name)

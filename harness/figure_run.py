@@ -21,13 +21,13 @@ from worlds import ObservationLog, World, load_world, simulate
 
 from . import metrics as M
 from .config_file import ConfigOverrides, write_config_toml
-from .scale import derive_configs
 from .evaluate import evaluate_stream, room_laps
 from .figures import Figure, Variant, get_figure
 from .progress import Progress
 from .report import write_report
 from .run_dir import provenance, staged_directory, write_json
 from .runner import StreamResult, run_stream
+from .scale import derive_configs
 
 REPORTS_DIR = Path("reports")
 ROOM_GH = (22.0, 7.5, 30.0, 13.0)  # full_floor's twice-lapped room (Fig 11, loops G and H)
@@ -73,17 +73,42 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
         np.savez_compressed(f, **maps)
 
 
-def _configs(fig: Figure, variant: Variant) -> tuple[RatSLAMConfig, PoseGraphConfig]:
+def _configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
+    """The variant's configurations (and what was derived, if anything): the figure's grid and
+    the variant's biases, on the defaults or on those derived from the log's scale."""
     nx, ny, nth = fig.grid
-    return (RatSLAMConfig(nx=nx, ny=ny, n_theta=nth, pi_bias_deg_s=variant.pi_bias),
-            PoseGraphConfig(estimate_yaw_bias=variant.gtsam_yaw_bias))
+    rs = RatSLAMConfig(nx=nx, ny=ny, n_theta=nth, pi_bias_deg_s=variant.pi_bias)
+    pg = PoseGraphConfig(estimate_yaw_bias=variant.gtsam_yaw_bias)
+    if variant.derived_scale:
+        return derive_configs(log, rs, pg)
+    return rs, pg, ""
 
 
-def _variant_world(world: World, variant: Variant) -> World:
+def _variant_world(world: World | None, variant: Variant) -> World | None:
     """The world a variant runs in: as loaded, or with its look-alike regions showing their own scenes."""
-    if variant.lookalikes or not world.scenes.lookalikes:
+    if world is None or variant.lookalikes or not world.scenes.lookalikes:
         return world
     return dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+
+
+def _scene_cell_size(fig: Figure, world: World | None) -> float:
+    """Side (m) of the scene cells the figure's scene numbers come from."""
+    if world is not None:
+        return world.scenes.cell_size
+    from worlds.real_data import PLAZA_SCENES
+
+    return PLAZA_SCENES.cell_size
+
+
+def _variant_log(fig: Figure, variant: Variant, world: World | None, duration: float | None,
+                 seed: int) -> ObservationLog:
+    """The observation stream of a variant: simulated in its world, or the figure's real data set
+    (scene numbers synthesised from its ground truth with ``seed``)."""
+    if fig.real_log is not None:
+        from worlds.real_data import load_plaza
+
+        return load_plaza(fig.real_log, seed=seed, fp_rate=fig.fp_rate, duration=duration)
+    return simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
 
 
 def _pool_context():
@@ -96,25 +121,29 @@ def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, dur
                  show_progress: bool, recorder_factory=None, config: ConfigOverrides | None = None,
                  redraw: bool | None = None) -> dict:
     world = _variant_world(world, variant)
-    log = simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
-    rs_cfg, pg_cfg = _configs(fig, variant)
+    log = _variant_log(fig, variant, world, duration, seed)
+    rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     write_config_toml(run_dir / "config.toml", rs_cfg, pg_cfg,
                       f"Effective configuration of {fig.name}, variant {variant.name} (seed {seed}).\n"
-                      f"Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml")
+                      + (f"{derivation}\n" if derivation else "")
+                      + "Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml")
     progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress, redraw=redraw)
     recorder = recorder_factory(run_dir, world, log, rs_cfg) if recorder_factory else None
     res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
     if recorder:
         recorder.close()
     write_stream_outputs(run_dir, log, res)
-    m = evaluate_stream(res, log)
+    m = evaluate_stream(res, log, closure_true_distance=1.5 * _scene_cell_size(fig, world))
     m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg),
                    "odometric_bias_deg_s": variant.odometric_bias, "pi_bias_deg_s": variant.pi_bias}
+    if derivation:
+        m["derived_scale"] = derivation
     if fig.world == "full_floor":
         m["rooms"] = room_laps(res, log, ROOM_GH, rs_cfg.cell_size_m, rs_cfg.shape)
-    m["_lap_length"] = lap_length(world, log.ground_truth())
+    m["_lap_length"] = lap_length(world, log.ground_truth()) if world is not None else None
+    m["_duration"] = log.duration
     return m
 
 
@@ -148,7 +177,7 @@ def run_figure(name: str, out=None, seed: int | None = None, duration: float | N
             raise ValueError(f"{name}: unknown variant(s) {sorted(unknown)} (known: {[v.name for v in fig.variants]})")
         fig = dataclasses.replace(fig, variants=tuple(v for i, v in enumerate(fig.variants)
                                                       if i == 0 or v.name in variants))
-    world = load_world(fig.world)
+    world = load_world(fig.world) if fig.world is not None else None
     seed = fig.seed if seed is None else int(seed)
     duration = fig.duration if duration is None else float(duration)
     out = Path(out) if out else REPORTS_DIR / fig.name
@@ -167,15 +196,19 @@ def run_figure(name: str, out=None, seed: int | None = None, duration: float | N
             results = [_run_variant(job[0], fig, *job[2:]) for job in jobs]
         variants = {v.name: m for v, m in zip(fig.variants, results)}
         primary = variants[fig.primary.name]
+        source = ({"world": {"name": world.name, "file": world.path, "lap_length_m": primary["_lap_length"]}}
+                  if world is not None else {"real_log": fig.real_log})
         metrics = {
             "figure": {"name": fig.name, "title": fig.title, "notes": fig.notes},
-            "world": {"name": world.name, "file": world.path, "lap_length_m": primary.pop("_lap_length")},
-            "duration_s": duration, "seed": seed, "fp_rate": fig.fp_rate,
+            **source,
+            "duration_s": primary["_duration"] if duration is None else duration, "seed": seed,
+            "fp_rate": fig.fp_rate,
             "variant_labels": {v.name: v.label for v in fig.variants},
             "variants": variants,
         }
         for v in variants.values():
             v.pop("_lap_length", None)
+            v.pop("_duration", None)
         if "rooms" in primary:
             metrics["rooms"] = primary["rooms"]
         metrics["claims"] = evaluate_claims(fig, metrics)

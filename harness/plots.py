@@ -30,17 +30,32 @@ def aligned(est_xy: np.ndarray, ref_xy: np.ndarray, apply_to: np.ndarray | None 
     return pts @ np.asarray(R).T + t
 
 
-def _world_axes(world: World, title: str, figsize=None):
-    w, h = world.size
-    fig, ax = plt.subplots(figsize=figsize or (min(12.0, 2.0 + w * 0.3), min(8.0, 1.6 + h * 0.3)))
-    draw_world(ax, world, route=False)
+def _world_axes(world: World | None, title: str, frame_xy: np.ndarray):
+    """Axes showing ``world`` (walls, obstacles) or, for a log without a world, framed on
+    ``frame_xy`` (the ground-truth path) with a 5% margin."""
+    if world is not None:
+        w, h = world.size
+        fig, ax = plt.subplots(figsize=(min(12.0, 2.0 + w * 0.3), min(8.0, 1.6 + h * 0.3)))
+        draw_world(ax, world, route=False)
+    else:
+        lo, hi = frame_xy.min(axis=0), frame_xy.max(axis=0)
+        pad = 0.05 * max(float(np.max(hi - lo)), 1.0)
+        w, h = (hi - lo) + 2 * pad
+        scale = 8.0 / max(w, h)
+        fig, ax = plt.subplots(figsize=(max(4.0, 1.5 + w * scale), max(3.0, 1.2 + h * scale)))
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
     ax.set_title(title, fontsize=10)
     return fig, ax
 
 
-def panel_world(world: World, gt: np.ndarray, odometry: np.ndarray, fp_xy: np.ndarray, path):
-    """(a) World, ground truth and (aligned) raw odometry."""
-    fig, ax = _world_axes(world, "(a) world, ground truth and odometry")
+def panel_world(world: World | None, gt: np.ndarray, odometry: np.ndarray, fp_xy: np.ndarray, path):
+    """(a) World (if any), ground truth and (aligned) raw odometry."""
+    fig, ax = _world_axes(world, "(a) world, ground truth and odometry" if world is not None
+                          else "(a) ground truth and odometry", gt[:, :2])
     odo = aligned(odometry[:, :2], gt[:, :2])
     ax.plot(odo[:, 0], odo[:, 1], color="tab:orange", lw=0.6, alpha=0.8, label="odometry (aligned)")
     ax.plot(gt[:, 0], gt[:, 1], color="k", lw=0.6, alpha=0.6, label="ground truth")
@@ -76,10 +91,11 @@ def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, pa
     return save_figure(fig, path)
 
 
-def panel_experience_map(world: World, exp_xy: np.ndarray, exp_gt_xy: np.ndarray, links: np.ndarray, path):
+def panel_experience_map(world: World | None, exp_xy: np.ndarray, exp_gt_xy: np.ndarray, links: np.ndarray,
+                         path):
     """(c) Experience map: experiences (dots) and transitions (lines), aligned to ground truth."""
-    fig, ax = _world_axes(world, "(c) experience map (aligned to ground truth)")
     xy = aligned(exp_xy, exp_gt_xy)
+    fig, ax = _world_axes(world, "(c) experience map (aligned to ground truth)", np.vstack([xy, exp_gt_xy]))
     if len(links):
         ax.add_collection(LineCollection(xy[links], colors="tab:green", linewidths=0.5, alpha=0.7))
     ax.plot(xy[:, 0], xy[:, 1], ".", color="tab:green", ms=2.5, label=f"{len(xy)} experiences")
@@ -87,11 +103,11 @@ def panel_experience_map(world: World, exp_xy: np.ndarray, exp_gt_xy: np.ndarray
     return save_figure(fig, path)
 
 
-def panel_gtsam(world: World, kf_xy: np.ndarray, kf_gt_xy: np.ndarray, closures: np.ndarray,
+def panel_gtsam(world: World | None, kf_xy: np.ndarray, kf_gt_xy: np.ndarray, closures: np.ndarray,
                 accepted: np.ndarray, path):
     """(d) GTSAM keyframes, accepted (green) and rejected (red) loop closures, aligned to ground truth."""
-    fig, ax = _world_axes(world, "(d) GTSAM pose graph (aligned to ground truth)")
     xy = aligned(kf_xy, kf_gt_xy)
+    fig, ax = _world_axes(world, "(d) GTSAM pose graph (aligned to ground truth)", np.vstack([xy, kf_gt_xy]))
     ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:purple", lw=0.6, label=f"{len(xy)} keyframes")
     closures = np.asarray(closures, dtype=int).reshape(-1, 2)
     if len(closures):

@@ -33,10 +33,10 @@ def _load(run_dir: Path):
 
 def write_panels(run_dir: Path, metrics: dict, maps: dict) -> list[Path]:
     """The four PNG panels of the primary variant."""
-    world = load_world(metrics["world"]["file"]) if metrics.get("world", {}).get("file") else None
+    world = load_world(metrics["world"]["file"]) if (metrics.get("world") or {}).get("file") else None
     traj = run_dir / "trajectories"
     gt = read_tum(traj / "ground_truth.tum")[1]
-    if gt is None or world is None:
+    if gt is None or len(gt) < 2:
         return []
     odo = read_tum(traj / "odometry.tum")[1]
     fp_xy = gt[maps["false_positive"].astype(bool), :2] if "false_positive" in maps else np.zeros((0, 2))
@@ -71,6 +71,10 @@ def render_markdown(metrics: dict, panels: list[str]) -> str:
         w = metrics["world"]
         lines += [f"World `{w['name']}`, {metrics['duration_s']:.0f} s simulated, seed {metrics['seed']}, "
                   f"false-positive rate {metrics.get('fp_rate', 'n/a')} per tick.", ""]
+    elif metrics.get("real_log"):
+        lines += [f"Real data set `{metrics['real_log']}`, {metrics['duration_s']:.0f} s, scene numbers "
+                  f"synthesised with seed {metrics['seed']}, false-positive rate {metrics.get('fp_rate', 'n/a')} "
+                  "per tick.", ""]
     if fig.get("notes"):
         lines += [fig["notes"], ""]
     claims = metrics.get("claims", [])
@@ -88,8 +92,10 @@ def render_markdown(metrics: dict, panels: list[str]) -> str:
               "at every tick; `pose_cell_path` is the pose-cell peak in metres (unwrapped).", ""]
     for name, v in metrics["variants"].items():
         label = metrics.get("variant_labels", {}).get(name, name)
-        lines += [f"### Variant `{name}`: {label}", "", "| trajectory | ATE (m) | alignment yaw (deg) |",
-                  "|---|---|---|"]
+        lines += [f"### Variant `{name}`: {label}", ""]
+        if v.get("derived_scale"):
+            lines += [v["derived_scale"].replace("\n", " "), ""]
+        lines += ["| trajectory | ATE (m) | alignment yaw (deg) |", "|---|---|---|"]
         for system, ate in v["ate"].items():
             lines.append(f"| {system} | {_fmt(ate)} | {_fmt(v['alignment_yaw_deg'].get(system))} |")
         lc = v.get("loop_closure", {})

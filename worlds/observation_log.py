@@ -44,6 +44,12 @@ class ObservationLog:
         return len(self.t)
 
     @property
+    def duration(self) -> float:
+        """Seconds the log covers, from the start of its first tick to the end of its last (a
+        recorded log's clock may start anywhere; a simulated one starts at 0)."""
+        return float(self.t[-1] - (self.t[0] - self.dt[0])) if len(self.t) else 0.0
+
+    @property
     def has_ground_truth(self) -> bool:
         return self.gt_x is not None
 
