@@ -120,9 +120,27 @@ def _cmd_import_rosbag(args) -> None:
 
 
 def _cmd_report(args) -> None:
+    if (Path(args.dir) / "runs.csv").is_file():
+        from .sweep_report import rebuild_sweep_report
+
+        print(f"wrote {rebuild_sweep_report(args.dir)}")
+        return
     from .report import write_report
 
     print(f"wrote {write_report(args.dir)}")
+
+
+def _cmd_sweep(args) -> None:
+    from .sweep_run import run_sweep
+    from .sweep_spec import read_sweep_spec
+
+    spec = read_sweep_spec(args.spec)
+    n = len(spec.runs())
+    if n > spec.max_runs and not args.yes:
+        raise CliError(f"{args.spec}: max_runs: the spec expands to {n} runs, more than {spec.max_runs}; "
+                       "pass --yes to run them all")
+    out = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler)
+    print(f"sweep directory: {out}\n  runs:   {out / 'runs.csv'}\n  report: {out / 'report.md'}")
 
 
 def _print_run_summary(out: Path) -> None:
@@ -274,8 +292,17 @@ def build_parser() -> argparse.ArgumentParser:
     _label_options(rb, "place-label topic (std_msgs integer, field data)")
     rb.set_defaults(func=_cmd_import_rosbag)
 
-    rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run directory")
-    rep.add_argument("dir", help="run directory")
+    sw = sub.add_parser("sweep", help="a robustness study: conditions x seeds x system configurations "
+                                      "(resumable: rerun the same command to finish a killed sweep)")
+    sw.add_argument("spec", help="sweep spec (TOML; see sweeps/ for examples)")
+    sw.add_argument("--out", required=True, help="sweep directory (runs/, runs.csv, report.md)")
+    sw.add_argument("--workers", type=_workers, help="local worker processes (default: one per core)")
+    sw.add_argument("--scheduler", help="run on a Dask distributed cluster at this address (tcp://HOST:8786)")
+    sw.add_argument("--yes", action="store_true", help="run even if the spec expands to more than max_runs")
+    sw.set_defaults(func=_cmd_sweep)
+
+    rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run or sweep directory")
+    rep.add_argument("dir", help="run directory, or sweep directory (rebuilt from its runs.csv)")
     rep.set_defaults(func=_cmd_report)
     return p
 
@@ -283,8 +310,9 @@ def build_parser() -> argparse.ArgumentParser:
 def _harness_errors() -> tuple[type, ...]:
     from .report import ReportError
     from .run_dir import OutputError
+    from .sweep_report import SweepReportError
 
-    return (ReportError, OutputError)
+    return (ReportError, OutputError, SweepReportError, RuntimeError)
 
 
 def _interrupt(signum, frame):

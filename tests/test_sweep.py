@@ -1,0 +1,145 @@
+"""Sweeps: spec validation, resumption after a kill, identical results for any executor."""
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from harness.cli import main
+from harness.sweep_report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
+from harness.sweep_run import run_one, run_sweep
+from harness.sweep_spec import SweepSpecError, read_sweep_spec
+
+SPEC = """
+[base]
+world = "small_loop"
+duration = {duration}
+
+[axes]
+fp_rate = [0.002, 0.05]
+odometric_bias = [0.0, 3.0]
+
+[seeds]
+count = 2
+
+[systems.ratslam]
+system = "ratslam"
+
+[systems.gtsam_robust]
+system = "gtsam"
+
+[systems.gtsam_gaussian]
+system = "gtsam"
+backend = "gaussian"
+"""
+
+
+def _spec(tmp_path, text=None, duration=30.0, name="sweep.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text if text is not None else SPEC.format(duration=duration))
+    return path
+
+
+def _rows_without_wall_time(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return [{k: v for k, v in row.items() if k not in WALL_COLUMNS} for row in csv.DictReader(f)]
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_ratio = [0.0]"), "[axes] fp_ratio: unknown axis"),
+    (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_rate = []"), "[axes] fp_rate: expected a non-empty list"),
+    (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_rate = [0.0, 1.5]"), "[axes] fp_rate: value 1.5 out of range"),
+    (lambda s: s.replace('backend = "gaussian"', 'backend = "gaussian"\nbakend = 1'),
+     "[systems.gtsam_gaussian] bakend: unknown key"),
+    (lambda s: s.replace('backend = "gaussian"', 'backend = "lasso"'), "[systems.gtsam_gaussian]"),
+    (lambda s: s.replace('system = "ratslam"', 'system = "orbslam"'), "[systems.ratslam] system"),
+    (lambda s: s.replace("count = 2", "count = 0"), "[seeds] count"),
+    (lambda s: s.replace('world = "small_loop"', 'world = "moon_base"'), "[base] world"),
+    (lambda s: s.replace("[axes]", "[axis]"), "axis: unknown key or table"),
+])
+def test_spec_errors_are_one_line_naming_file_and_key(tmp_path, edit, message):
+    path = _spec(tmp_path, edit(SPEC.format(duration=30.0)))
+    with pytest.raises(SweepSpecError) as e:
+        read_sweep_spec(path)
+    text = str(e.value)
+    assert "\n" not in text and str(path) in text and message in text
+
+
+def test_spec_expands_one_axis_at_a_time_or_as_a_grid(tmp_path):
+    spec = read_sweep_spec(_spec(tmp_path))
+    assert len(spec.runs()) == (2 + 2) * 2
+    grid = read_sweep_spec(_spec(tmp_path, 'design = "grid"\n' + SPEC.format(duration=30.0), name="g.toml"))
+    assert len(grid.runs()) == 2 * 2 * 2
+
+
+def test_too_many_runs_need_yes(tmp_path, capsys):
+    path = _spec(tmp_path, "max_runs = 3\n" + SPEC.format(duration=30.0))
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "max_runs" in err and "8 runs" in err and "--yes" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_failing_run_is_recorded_with_a_one_line_error():
+    result = run_one({"world": "no_such_world", "duration": 10.0, "condition": {}, "seed": 0, "systems": []})
+    assert result["error"] and "\n" not in result["error"] and "no_such_world" in result["error"]
+
+
+def test_same_runs_csv_for_one_worker_two_workers_and_dask(tmp_path):
+    """Determinism whatever the executor: runs.csv (wall times aside) is identical for one local
+    worker, two local workers and a Dask LocalCluster of two worker processes."""
+    distributed = pytest.importorskip("distributed")
+    spec = read_sweep_spec(_spec(tmp_path))
+    outs = [run_sweep(spec, tmp_path / "w1", workers=1, log=lambda line: None),
+            run_sweep(spec, tmp_path / "w2", workers=2, log=lambda line: None)]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        outs.append(run_sweep(spec, tmp_path / "dask", scheduler=cluster.scheduler_address, log=lambda line: None))
+    tables = [_rows_without_wall_time(out / "runs.csv") for out in outs]
+    # 8 runs on the curves x 3 systems; fp_rate 0.002 is the world's own rate, so that run is the
+    # base of the bias curve too and ran once per seed (6 run directories)
+    assert len(tables[0]) == 8 * 3 and len({r["run_id"] for r in tables[0]}) == 6
+    assert all(len(list((out / "runs").glob("*/result.json"))) == 6 for out in outs)
+    assert tables[0] == tables[1] == tables[2]
+
+
+def test_killed_sweep_resumes_without_recomputing(tmp_path):
+    """A sweep killed with SIGKILL mid-run and restarted with the same command computes only the
+    missing runs: every run exists once and the completed ones are untouched."""
+    path = _spec(tmp_path, duration=60.0)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "harness.cli", "sweep", str(path), "--out", str(out), "--workers", "1"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    runs = out / "runs"
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list(runs.glob("*/result.json"))) < 2:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    before = {p.parent.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in runs.glob("*/result.json")}
+    assert 2 <= len(before) < 6, "the sweep should have been killed mid-way"
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert f"({len(before)} already done, {6 - len(before)} to run)" in r.stderr
+    after = {p.parent.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in runs.glob("*/result.json")}
+    assert len(after) == 6 and all(after[k] == v for k, v in before.items())
+    assert not list(runs.glob(".*partial*"))
+    rows = read_runs_csv(out / "runs.csv")
+    assert len({r["run_id"] for r in rows}) == 6 and not any(r["error"] for r in rows)
+
+
+def test_report_rebuilds_from_runs_csv(tmp_path):
+    spec = read_sweep_spec(_spec(tmp_path, duration=20.0))
+    out = run_sweep(spec, tmp_path / "out", workers=1, log=lambda line: None)
+    first = (out / "report.md").read_text()
+    (out / "report.md").unlink()
+    (out / "curve_fp_rate.png").unlink()
+    rebuild_sweep_report(out)
+    assert (out / "report.md").read_text() == first
+    assert (out / "curve_fp_rate.png").read_bytes()[:4] == b"\x89PNG"
+    assert "| system | fp_rate | odometric_bias |" in first
