@@ -54,7 +54,7 @@ def run_tasks(spec: SweepSpec, code: str) -> list[dict]:
         # the full condition: a value repeated on two axes' curves (e.g. the base) runs once
         condition = {a: float(varied.get(a, base[a])) for a in AXES}
         task = {
-            "world": spec.world, "duration": spec.duration,
+            "world": spec.world, "duration": spec.duration, "lookalikes": spec.lookalikes,
             "condition": condition, "seed": seed,
             "systems": [{"name": s.name, "kind": s.kind,
                          "config": dataclasses.asdict(system_config(s, condition))} for s in spec.systems],
@@ -67,9 +67,10 @@ def run_tasks(spec: SweepSpec, code: str) -> list[dict]:
     return tasks
 
 
-def condition_world(world_name: str, condition: dict):
+def condition_world(world_name: str, condition: dict, lookalikes: bool = True):
     """The world with the condition's scene and odometry values (and the simulate() arguments);
-    ``condition`` has a value for every axis."""
+    ``condition`` has a value for every axis; ``lookalikes`` False gives the world's look-alike
+    regions their own scenes."""
     from worlds import load_world
 
     world = load_world(world_name)
@@ -78,6 +79,7 @@ def condition_world(world_name: str, condition: dict):
         scenes,
         alias_rate=condition.get("alias_rate", scenes.alias_rate),
         blank_rate=condition.get("blank_rate", scenes.blank_rate),
+        lookalikes=scenes.lookalikes if lookalikes else (),
     )
     scale = condition.get("odometry_noise_scale", 1.0)
     odo = dataclasses.replace(odo, noise_trans=odo.noise_trans * scale, noise_rot=odo.noise_rot * scale)
@@ -135,7 +137,7 @@ def run_one(task: dict) -> dict:
 
         from .runner import dead_reckon
 
-        world, sim_args = condition_world(task["world"], task["condition"])
+        world, sim_args = condition_world(task["world"], task["condition"], task.get("lookalikes", True))
         log = simulate(world, duration=task["duration"], seed=task["seed"], **sim_args)
         gt = log.ground_truth()
         systems = {s["name"]: {"kind": s["kind"], **_run_system(s["kind"], s["config"], log, gt)}

@@ -9,6 +9,7 @@ A spec is a TOML file::
     world = "small_loop"          # a shipped world or a world file (relative to the spec), or
     # figure = "fig7"             # a figure: its world, duration, false-positive rate and grid
     duration = 600.0              # simulated seconds (default: the world's or figure's)
+    lookalikes = false            # the world's look-alike regions show their own scenes (default true)
 
     [axes]                        # any of AXES, each a non-empty list of values
     fp_rate = [0.0, 0.01, 0.02, 0.05]
@@ -98,6 +99,7 @@ class SweepSpec:
     seeds: tuple[int, ...]
     systems: tuple[SystemSpec, ...]
     max_runs: int
+    lookalikes: bool = True  # False: the world's look-alike regions show their own scenes
 
     def base_values(self) -> dict:
         """Each axis's value at the base condition (the world's own, or the figure's rate)."""
@@ -132,9 +134,12 @@ def _read_base(path: Path, raw: dict):
     base = raw.get("base")
     if not isinstance(base, dict):
         _fail(path, "[base]", "missing table (needs world = ... or figure = ...)")
-    unknown = set(base) - {"world", "figure", "duration"}
+    unknown = set(base) - {"world", "figure", "duration", "lookalikes"}
     if unknown:
-        _fail(path, f"[base] {sorted(unknown)[0]}", "unknown key (expected world, figure, duration)")
+        _fail(path, f"[base] {sorted(unknown)[0]}", "unknown key (expected world, figure, duration, lookalikes)")
+    lookalikes = base.get("lookalikes", True)
+    if not isinstance(lookalikes, bool):
+        _fail(path, "[base] lookalikes", f"expected true or false, got {lookalikes!r}")
     if ("world" in base) == ("figure" in base):
         _fail(path, "[base]", "give exactly one of world = ... or figure = ...")
     fp, grid, duration = None, None, None
@@ -163,7 +168,7 @@ def _read_base(path: Path, raw: dict):
         duration = _number(path, "[base] duration", base["duration"])
         if duration <= 0:
             _fail(path, "[base] duration", f"must be positive, got {duration!r}")
-    return world, duration if duration is not None else loaded.duration, fp, grid
+    return world, duration if duration is not None else loaded.duration, fp, grid, lookalikes
 
 
 def _read_axes(path: Path, raw: dict) -> dict:
@@ -260,14 +265,14 @@ def read_sweep_spec(path) -> SweepSpec:
     max_runs = raw.get("max_runs", DEFAULT_MAX_RUNS)
     if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < 1:
         _fail(path, "max_runs", f"expected an integer >= 1, got {max_runs!r}")
-    world, duration, fp, grid = _read_base(path, raw)
+    world, duration, fp, grid, lookalikes = _read_base(path, raw)
     axes = _read_axes(path, raw)
     seeds = _read_seeds(path, raw)
     systems = _read_systems(path, raw, grid)
     if "pi_bias" in axes and not any(s.kind == "ratslam" for s in systems):
         _fail(path, "[axes] pi_bias", "varies RatSLAM's path integration, but no RatSLAM system is configured")
     spec = SweepSpec(path=str(path), world=world, duration=duration, base_fp_rate=fp, grid=grid, design=design,
-                     axes=axes, seeds=seeds, systems=systems, max_runs=max_runs)
+                     axes=axes, seeds=seeds, systems=systems, max_runs=max_runs, lookalikes=lookalikes)
     if not spec.runs():
         _fail(path, "[axes]", "the spec expands to zero runs")
     return spec
