@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from baselines import PoseGraphConfig
-from harness.scale import derive_configs, ladder, measure_log, trans_gain
+from harness.scale import derive_configs, ladder, measure_log, revisit_noise, trans_gain
 from ratslam import RatSLAMConfig
 from worlds import ObservationLog, simulate
 
@@ -86,3 +86,59 @@ def test_ladder_and_gain():
     assert ladder(4.7) == 4.0 and ladder(2.1) == 2.0 and ladder(2.9) == pytest.approx(2 ** 1.5)
     assert trans_gain(0.17) == 1.05 and trans_gain(0.8) == 1.0
     assert 1.0 < trans_gain(0.4) < 1.05
+
+
+def _revisiting_drive(heading_drift: float, along_noise: float, jitter_w: float = 0.02, weave: float = 0.1,
+                      n=9000, seed=0):
+    """A vehicle driving a 40 m x 20 m rectangle at 1 m/s and 5 Hz (0.2 m per tick, labels in
+    2 m cells and four heading sectors), its yaw rate rough (a weaving +-``weave`` rad/s signal plus
+    ``jitter_w`` rad/s per tick of noise that does not integrate: each tick's error is undone on the
+    next; neither drifts) with ``heading_drift`` rad/s of white noise that does, and ``along_noise`` m/s of
+    per-tick white noise on the speed. Scene numbers come from the true track (ground truth
+    is not in the log)."""
+    rng = np.random.default_rng(seed)
+    dt = np.full(n, 0.2)
+    corners = np.array([[0, 0], [40, 0], [40, 20], [0, 20], [0, 0]], float)
+    seg = np.diff(corners, axis=0)
+    lap = np.hypot(*seg.T).sum()
+    s = (np.arange(n) * 0.2) % lap
+    bounds = np.r_[0, np.cumsum(np.hypot(*seg.T))]
+    k = np.searchsorted(bounds, s, side="right") - 1
+    frac = (s - bounds[k]) / np.hypot(*seg[k].T)
+    x, y = corners[k, 0] + frac * seg[k, 0], corners[k, 1] + frac * seg[k, 1]
+    theta = np.unwrap(np.arctan2(seg[k, 1], seg[k, 0]))
+    true_w = np.r_[np.diff(theta), 0.0] / 0.2
+    jitter = rng.normal(0, jitter_w, n + 1)
+    wobble = weave * np.sin(np.arange(n) * 1.3)    # integrates to a bounded +-0.02 rad wobble
+    w = true_w + wobble + jitter[1:] - jitter[:-1] + rng.normal(0, heading_drift, n)
+    v = 1.0 + rng.normal(0, along_noise, n)
+    cell = np.floor(x / 2.0).astype(int) * 1000 + np.floor(y / 2.0).astype(int) * 10
+    sector = np.round(theta / (np.pi / 2)).astype(int) % 4
+    scene = (cell + sector) % 100_000
+    return ObservationLog(t=np.cumsum(dt), dt=dt, v_trans=v, v_rot=w, scene_id=scene)
+
+
+def test_revisits_replace_a_roughness_reading_that_they_reject():
+    # rough yaw rate (weave and jitter: reads x8 of 0.01) but no heading drift; along-track
+    # noise 0.1 m/s, far above the speed's own roughness reading
+    log = _revisiting_drive(heading_drift=0.0, along_noise=0.1)
+    m = measure_log(log)
+    assert ladder(m.sigma_w / 0.01) >= 2.0                    # the roughness says: noisy yaw rate
+    r = revisit_noise(log, min_travel=8.0, closure_sigma=2.0 / np.sqrt(6.0), margin=2.0)
+    assert r is not None and r.pairs > 100
+    assert r.k_w <= 0.5                                        # the revisits: no heading drift
+    assert r.support_v[0] >= 4.0                               # and more than 0.04 m/s along track
+    _, pg, text = derive_configs(log)
+    assert pg.odom_sigma_w <= 0.005 and pg.odom_sigma_v >= 0.04
+    assert "Revisits" in text
+
+
+def test_revisits_keep_a_roughness_reading_within_their_support():
+    # white yaw-rate noise that does integrate: the roughness reading is the drift, and kept
+    log = _revisiting_drive(heading_drift=0.03, along_noise=0.0, jitter_w=0.0, weave=0.0)
+    m = measure_log(log)
+    k_w = ladder(m.sigma_w / 0.01)
+    r = revisit_noise(log, min_travel=8.0, closure_sigma=2.0 / np.sqrt(6.0), margin=2.0)
+    assert r.support_w[0] <= k_w <= r.support_w[1]
+    _, pg, _ = derive_configs(log)
+    assert pg.odom_sigma_w == pytest.approx(0.01 * k_w)
