@@ -5,8 +5,9 @@ Per tick: integrate the wheel odometry on SE(2); take a keyframe every
 join consecutive keyframes by an odometry between-factor; when a keyframe's scene
 number was seen at earlier keyframes, add a loop-closure factor to the nearest
 such sighting (closures are handed to iSAM2 a few keyframes at a time, at once if
-one contradicts the estimate); optimise online with iSAM2 (robust, Gaussian or
-GNC-verified closures).  The SLAM never sees ground truth.
+one contradicts the estimate; keyframes with only odometry wait for the next
+update, up to ``odometry_batch_keyframes``); optimise online with iSAM2 (robust,
+Gaussian or GNC-verified closures).  The SLAM never sees ground truth.
 """
 
 from __future__ import annotations
