@@ -247,7 +247,12 @@ class PoseGraphConfig:
         the growth: the graph itself (each visit tied to the nearest of the 12
         latest sightings) has a root clique that grows with time; a batch
         COLAMD or METIS ordering of the final 9,000 s graph still has cliques
-        of 277 / 178 variables, and rebuilding iSAM2 with a fresh COLAMD
+        of 277 / 178 variables; closure batches of 8 on top (instead of 4)
+        take the 9,000 s stream from 48 to 37 s CPU at keyframe / online ATE
+        0.0662 / 0.1316 m (fig7 0.093 / 0.105, fig11 0.077 / 0.264, fig13
+        0.095 / 0.120, fig4 0.066 / 0.133), but cost the yaw-bias variant 20%
+        (see ``closure_batch_keyframes``), so they are not the default; and
+        rebuilding iSAM2 with a fresh COLAMD
         ordering every 500 keyframes (0.16 s per rebuild)
         saved nothing (78 s CPU against 73-82 s without).
     isam2_extra_updates:
