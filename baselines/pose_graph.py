@@ -5,8 +5,9 @@ Per tick: integrate the wheel odometry on SE(2); take a keyframe every
 join consecutive keyframes by an odometry between-factor; when a keyframe's scene
 number was seen at earlier keyframes, add a loop-closure factor to the nearest
 such sighting (closures are handed to iSAM2 a few keyframes at a time, at once if
-one contradicts the estimate); optimise online with iSAM2 (robust, Gaussian or
-GNC-verified closures).  The SLAM never sees ground truth.
+one contradicts the estimate; keyframes with only odometry wait for the next
+update, up to ``odometry_batch_keyframes``); optimise online with iSAM2 (robust,
+Gaussian or GNC-verified closures).  The SLAM never sees ground truth.
 """
 
 from __future__ import annotations
@@ -86,6 +87,11 @@ class PoseGraphSLAM:
         self._keyframes_since_gnc = 0
         self._pending_closures: list[tuple[int, gtsam.NonlinearFactor]] = []  # proposed, not yet in iSAM2
         self._keyframes_since_flush = 0
+        # Odometry-only keyframes not yet handed to iSAM2 (``odometry_batch_keyframes``):
+        # their factors and guesses; keyframes from ``_isam_keyframes`` on are not in iSAM2.
+        self._deferred_factors: list = []
+        self._deferred_values = gtsam.Values()
+        self._isam_keyframes = 0
 
     # ------------------------------------------------------------------ step
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -140,6 +146,7 @@ class PoseGraphSLAM:
         self._values.insert(values)
         if self._isam is not None:
             self._update_isam([(factors.at(n), None) for n in range(factors.size())], values)
+            self._isam_keyframes = 1
         self._latest = pose0
         self._scenes.add(scene, j)
         self._buffer = TickBuffer()
@@ -187,8 +194,22 @@ class PoseGraphSLAM:
         self._keyframes_since_flush += 1
         flush = bool(self._pending_closures) and (self._keyframes_since_flush >= cfg.closure_batch_keyframes
                                                   or self._disagrees(closures, guess))
+        if (not flush and not cfg.estimate_yaw_bias
+                and len(self._deferred_factors) + 1 < cfg.odometry_batch_keyframes):
+            # Odometry only: iSAM2 would place the keyframe at exactly this guess (its only
+            # new factor is satisfied there), so it waits and joins the next update.
+            self._deferred_factors.append(odo_factor)
+            self._deferred_values.insert(X(j), guess)
+            self._latest = guess
+            if cfg.backend == "gnc":
+                self._keyframes_since_gnc += 1
+            return
         closure_factors = self._take_pending() if flush else []
-        tagged = [(odo_factor, None)] + closure_factors
+        tagged = [(f, None) for f in self._deferred_factors] + [(odo_factor, None)] + closure_factors
+        new_values.insert(self._deferred_values)
+        self._deferred_factors = []
+        self._deferred_values = gtsam.Values()
+        self._isam_keyframes = j + 1
         # Constrain only the new keyframe (and the bias, which every odometry factor
         # touches) to the end of the elimination order.  iSAM2's default constrains every
         # key of the new factors, so the old end of each closure is dragged to the root
@@ -208,10 +229,15 @@ class PoseGraphSLAM:
         self._refresh_latest()
 
     def _flush_closures(self) -> None:
-        """Hand the closures still waiting for their batch to iSAM2 (end of run)."""
-        if self._isam is None or not self._pending_closures:
+        """Hand the keyframes and closures still waiting for their batch to iSAM2 (end of run)."""
+        if self._isam is None or not (self._pending_closures or self._deferred_factors):
             return
-        self._update_isam(self._take_pending(), gtsam.Values())
+        tagged = [(f, None) for f in self._deferred_factors]
+        values = self._deferred_values
+        self._deferred_factors = []
+        self._deferred_values = gtsam.Values()
+        self._isam_keyframes = len(self._kf_ticks)
+        self._update_isam(tagged + (self._take_pending() if self._pending_closures else []), values)
         self._refresh_latest()
 
     def _take_pending(self) -> list:
@@ -317,7 +343,10 @@ class PoseGraphSLAM:
 
     def _estimate_pose2(self, i: int) -> tuple[float, float, float]:
         """Current estimate of keyframe ``i`` (its odometry guess when offline)."""
-        p = self._isam.calculateEstimatePose2(X(i)) if self._isam is not None else self._values.atPose2(X(i))
+        if self._isam is not None and i < self._isam_keyframes:
+            p = self._isam.calculateEstimatePose2(X(i))
+        else:  # offline, or a keyframe waiting for iSAM2 (its guess is what iSAM2 would give)
+            p = self._values.atPose2(X(i))
         return p.x(), p.y(), p.theta()
 
     def _refresh_latest(self) -> None:
@@ -337,7 +366,10 @@ class PoseGraphSLAM:
         if self._batch is not None:
             return self._batch
         if self._isam is not None:
-            return self._isam.calculateEstimate()
+            values = self._isam.calculateEstimate()
+            if self._deferred_factors:
+                values.insert(self._deferred_values)
+            return values
         return self._values
 
     def _run_gnc(self, initial: gtsam.Values) -> gtsam.Values:

@@ -86,7 +86,7 @@ class TimedISAM2:
 
 def stats_ms(values) -> dict:
     a = np.asarray(values) * 1e3
-    return {"median_ms": float(np.median(a)), "p95_ms": float(np.percentile(a, 95)),
+    return {"median_ms": float(np.median(a)), "mean_ms": float(np.mean(a)), "p95_ms": float(np.percentile(a, 95)),
             "p99_ms": float(np.percentile(a, 99)), "n": int(a.size)}
 
 
@@ -117,7 +117,7 @@ def keyframe_timing(targets: list[int], config: PoseGraphConfig, window: int = 2
                 target = targets.pop(0)
                 graph_size = slam._graph.size()
                 t0 = time.perf_counter()
-                batch_lm(slam._graph, proxy.calculateEstimate(), slam.config)
+                batch_lm(slam._graph, slam._current_values(), slam.config)  # incl. keyframes waiting for iSAM2
                 lm = time.perf_counter() - t0
                 upd = stats_ms(update_times[-window:])
                 out[target] = {
@@ -130,7 +130,11 @@ def keyframe_timing(targets: list[int], config: PoseGraphConfig, window: int = 2
                         np.add(update_times[-window:], backsub_times[-window:])),
                     "keyframe_step": stats_ms(step_times[-window:]),
                     "batch_lm_ms": lm * 1e3,
-                    "batch_lm_over_isam2_median": lm * 1e3 / upd["median_ms"],
+                    # A keyframe with only odometry may wait for the next update
+                    # (``odometry_batch_keyframes``): its update time is 0, so the median
+                    # per keyframe can be 0; per call and the mean per keyframe are given too.
+                    "isam2_update_per_call": stats_ms([u for u in update_times[-window:] if u > 0.0] or [0.0]),
+                    "batch_lm_over_isam2_mean": lm / float(np.mean(update_times[-window:])),
                 }
                 print(json.dumps(out[target]), flush=True)
                 if not targets:
@@ -212,7 +216,8 @@ def main() -> None:
     keyframes = keyframe_timing(targets, PoseGraphConfig())
     old_targets = [1000, 2000] if args.quick else [1000, 3000]
     print("per keyframe, every closure at once from a 64-sighting window (the previous default):")
-    previous = keyframe_timing(old_targets, PoseGraphConfig(closure_batch_keyframes=1, closure_candidate_window=64))
+    previous = keyframe_timing(old_targets, PoseGraphConfig(closure_batch_keyframes=1, closure_candidate_window=64,
+                                                                odometry_batch_keyframes=1))
     result = {"stream_15min": stream, "streams": hard, "per_keyframe": keyframes,
               "per_keyframe_previous_default": previous,
               "targets": {"median_update_ms_at_10000": 5.0, "p99_update_ms_at_10000": 50.0}}
@@ -220,14 +225,14 @@ def main() -> None:
     both = keyframes[top]["isam2_update_plus_backsubstitution"]
     upd = keyframes[top]["isam2_update"]
     print(f"\nat {top:,} keyframes: iSAM2 update median {upd['median_ms']:.2f} ms, p99 {upd['p99_ms']:.2f} ms; "
-          f"with the deferred back-substitution median {both['median_ms']:.2f} ms, p99 {both['p99_ms']:.2f} ms "
-          f"(targets <= 5 ms and <= 50 ms): "
+          f"with the deferred back-substitution median {both['median_ms']:.2f} ms, mean {both['mean_ms']:.2f} ms, "
+          f"p99 {both['p99_ms']:.2f} ms (targets <= 5 ms and <= 50 ms): "
           f"{'met' if both['median_ms'] <= 5.0 and both['p99_ms'] <= 50.0 else 'MISSED'}")
     common = min(old_targets[-1], top)
     if common in previous and common in keyframes:
-        ratio = (previous[common]["isam2_update_plus_backsubstitution"]["median_ms"]
-                 / keyframes[common]["isam2_update_plus_backsubstitution"]["median_ms"])
-        print(f"at {common:,} keyframes the previous default's median update is {ratio:.1f}x the default's")
+        ratio = (previous[common]["isam2_update_plus_backsubstitution"]["mean_ms"]
+                 / keyframes[common]["isam2_update_plus_backsubstitution"]["mean_ms"])
+        print(f"at {common:,} keyframes the previous default's mean update per keyframe is {ratio:.1f}x the default's")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(result, f, indent=2)

@@ -50,6 +50,8 @@ def test_config_is_a_dataclass_for_provenance():
         ({"accept_weight": 0.0}, "accept_weight"),
         ({"gnc_inlier_probability": 1.0}, "gnc_inlier_probability"),
         ({"gnc_interval": 0}, "gnc_interval"),
+        ({"odometry_batch_keyframes": 0}, "odometry_batch_keyframes"),
+        ({"odometry_batch_keyframes": True}, "odometry_batch_keyframes"),
         ({"isam2_extra_updates": -1}, "isam2_extra_updates"),
         ({"isam2_relinearize_skip": 0}, "isam2_relinearize_skip"),
         ({"isam2_bias_relinearize_threshold": -1.0}, "isam2_bias_relinearize_threshold"),

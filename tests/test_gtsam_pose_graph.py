@@ -243,3 +243,73 @@ def test_gnc_holds_each_closure_once_with_batched_closures():
             closure_factors += abs(a - b) != 1          # odometry joins consecutive keyframes
     present = sum(1 for idx in pg._lc_isam_index if idx >= 0)
     assert present > 50 and closure_factors == present    # measured before the fix: 173 vs 151
+
+
+def _isam_keyframes(slam):
+    """Keyframe variables iSAM2 holds (the yaw-bias variable, if any, is not one)."""
+    import gtsam
+
+    values = slam._isam.calculateEstimate()
+    return sum(1 for k in values.keys() if gtsam.Symbol(k).chr() == ord("x"))
+
+
+@pytest.mark.parametrize("backend", ["robust", "gnc"])
+def test_odometry_batch_gives_the_estimate_of_per_keyframe_updates(stream, backend):
+    """Odometry-only keyframes waiting for the next iSAM2 update (``odometry_batch_keyframes``)
+    change no estimate beyond linearisation noise: same closures, same keyframe poses and
+    online pose to 1 mm, against an update on every keyframe."""
+    each = PoseGraphSLAM(PoseGraphConfig(backend=backend, odometry_batch_keyframes=1))
+    batched = PoseGraphSLAM(PoseGraphConfig(backend=backend, odometry_batch_keyframes=8))
+    dt, v, w, scene, _ = stream
+    deferred_seen = 0
+    for k, row in enumerate(zip(dt, v, w, scene)):
+        each.step(*row)
+        batched.step(*row)
+        assert batched.pose == pytest.approx(each.pose, abs=1e-3)
+        if k % 50 == 0:
+            # Reads mid-run cover every keyframe, including those not yet handed to iSAM2.
+            deferred_seen += _isam_keyframes(batched) < batched.num_keyframes
+            assert np.allclose(batched.keyframe_poses, each.keyframe_poses, atol=1e-3)
+    assert deferred_seen > 0                      # the batching was exercised
+    assert np.array_equal(batched.loop_closures, each.loop_closures)
+    each.finalize()
+    batched.finalize()
+    assert _isam_keyframes(batched) == batched.num_keyframes  # finalize hands the rest over
+    assert np.allclose(batched.keyframe_poses, each.keyframe_poses, atol=1e-3)
+    assert np.allclose(batched.closure_weights, each.closure_weights, atol=1e-3)
+
+
+def test_odometry_batch_bounds_the_wait_and_spares_updates(stream):
+    """Without closures (a first lap), a keyframe waits for at most ``odometry_batch_keyframes``-1
+    others; iSAM2 gets one update per batch instead of one per keyframe."""
+    slam = PoseGraphSLAM(PoseGraphConfig(odometry_batch_keyframes=5, closure_min_travel=1e6))
+    dt, v, w, scene, _ = stream
+    updates = 0
+    real = slam._isam.update
+
+    class Counting:
+        def update(self, *args):
+            nonlocal updates
+            updates += 1
+            return real(*args)
+
+        def __getattr__(self, name):
+            return getattr(slam._isam_real, name)
+
+    slam._isam_real = slam._isam
+    slam._isam = Counting()
+    for row in zip(dt, v, w, scene):
+        slam.step(*row)
+        held = slam._isam_keyframes
+        assert 0 <= slam.num_keyframes - held < 5
+    assert len(slam.loop_closures) == 0
+    assert updates == 1 + (slam.num_keyframes - 1) // 5
+
+
+def test_odometry_batch_leaves_the_yaw_bias_variant_unchanged(stream):
+    """With the yaw-bias variable every odometry update refines the bias, so keyframes are never
+    held back: bit-identical to per-keyframe updates."""
+    a = run(PoseGraphConfig(estimate_yaw_bias=True, odometry_batch_keyframes=1), stream, finalize=True)
+    b = run(PoseGraphConfig(estimate_yaw_bias=True, odometry_batch_keyframes=8), stream, finalize=True)
+    assert np.array_equal(a.keyframe_poses, b.keyframe_poses)
+    assert a.pose == b.pose and a.yaw_bias == b.yaw_bias
