@@ -192,7 +192,7 @@ class PoseGraphSLAM:
             self._latest = guess
             return
         self._keyframes_since_flush += 1
-        flush = bool(self._pending_closures) and (self._keyframes_since_flush >= cfg.closure_batch_keyframes
+        flush = bool(self._pending_closures) and (self._keyframes_since_flush >= cfg.closure_batch
                                                   or self._disagrees(closures, guess))
         if (not flush and not cfg.estimate_yaw_bias
                 and len(self._deferred_factors) + 1 < cfg.odometry_batch_keyframes):

@@ -54,6 +54,8 @@ def test_config_is_a_dataclass_for_provenance():
         ({"odometry_batch_keyframes": True}, "odometry_batch_keyframes"),
         ({"isam2_extra_updates": -1}, "isam2_extra_updates"),
         ({"isam2_relinearize_skip": 0}, "isam2_relinearize_skip"),
+        ({"closure_batch_keyframes": 0}, "closure_batch_keyframes"),
+        ({"closure_batch_keyframes": 2.5}, "closure_batch_keyframes"),
         ({"isam2_bias_relinearize_threshold": -1.0}, "isam2_bias_relinearize_threshold"),
         ({"closure_recent_tolerance": -0.1}, "closure_recent_tolerance"),
         ({"closure_early_tolerance": float("nan")}, "closure_early_tolerance"),
@@ -74,6 +76,14 @@ def test_relinearize_skip_default_depends_on_bias_estimation():
     assert PoseGraphConfig().relinearize_skip == 10
     assert PoseGraphConfig(estimate_yaw_bias=True).relinearize_skip == 1
     assert PoseGraphConfig(estimate_yaw_bias=True, isam2_relinearize_skip=5).relinearize_skip == 5
+
+
+def test_closure_batch_default_depends_on_bias_estimation():
+    """Closures wait for batches of 8 keyframes, 4 when the yaw-bias variable (which lives on
+    closures) is estimated; an explicit value wins."""
+    assert PoseGraphConfig().closure_batch == 8
+    assert PoseGraphConfig(estimate_yaw_bias=True).closure_batch == 4
+    assert PoseGraphConfig(estimate_yaw_bias=True, closure_batch_keyframes=2).closure_batch == 2
 
 
 def test_numpy_numbers_are_accepted():
