@@ -139,7 +139,12 @@ def _cmd_sweep(args) -> None:
     if n > spec.max_runs and not args.yes:
         raise CliError(f"{args.spec}: max_runs: the spec expands to {n} runs, more than {spec.max_runs}; "
                        "pass --yes to run them all")
-    out = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler)
+    try:
+        out = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler)
+    except KeyboardInterrupt:
+        print(f"ratslam-harness: interrupted; the completed runs are kept in {Path(args.out) / 'runs'}: "
+              "rerun the same command to finish the sweep", file=sys.stderr)
+        raise SystemExit(130) from None
     print(f"sweep directory: {out}\n  runs:   {out / 'runs.csv'}\n  report: {out / 'report.md'}")
 
 

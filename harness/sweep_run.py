@@ -164,6 +164,10 @@ class Executor:
     def close(self) -> None:
         pass
 
+    def abort(self) -> None:
+        """Stop at once (interrupted): runs in flight are lost and recomputed on resume."""
+        self.close()
+
 
 def _pin_threads() -> None:
     os.environ.update(_ONE_THREAD)
@@ -203,6 +207,11 @@ class LocalExecutor(Executor):
     def close(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
 
+    def abort(self) -> None:
+        for process in list(getattr(self._pool, "_processes", {}).values()):
+            process.terminate()
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
 
 class DaskExecutor(Executor):
     """The tasks on a Dask distributed cluster at ``address`` (``tcp://HOST:8786``)."""
@@ -228,6 +237,9 @@ class DaskExecutor(Executor):
 
     def close(self) -> None:
         self._client.close()
+
+    def abort(self) -> None:
+        self._client.close(timeout=5)
 
 
 # ---------------------------------------------------------------------------- the driver
@@ -293,7 +305,8 @@ def run_sweep(spec: SweepSpec, out, workers: int | None = None, scheduler: str |
             executor = LocalExecutor(workers or default_workers(len(todo)))
         start, finished = time.perf_counter(), 0
         try:
-            for task, result in executor.run(run_one, todo):
+            results = executor.run(run_one, todo)
+            for task, result in results:
                 _write_result(runs_dir, task, result)
                 finished += 1
                 failures += bool(result["error"])
@@ -304,8 +317,10 @@ def run_sweep(spec: SweepSpec, out, workers: int | None = None, scheduler: str |
                 status = f"FAILED ({result['error']})" if result["error"] else f"{result['wall_s']:.1f} s"
                 log(f"[{len(done) + finished}/{total}] {cond} seed={task['seed']}: {status}; "
                     f"failures {failures}; ETA {_eta(eta)}")
-        finally:
-            executor.close()
+        except BaseException:
+            executor.abort()  # interrupted: completed runs are on disk, the rest is recomputed on resume
+            raise
+        executor.close()
     write_sweep_report(out, tasks)
     log(f"sweep done: {total} runs, {failures} failed; {out / 'runs.csv'}, {out / 'report.md'}")
     return out
