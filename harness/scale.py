@@ -59,8 +59,21 @@ the simulator's own streams get exactly the defaults. The rules:
       shift of the default network (straight runs, headings 0 and 35 deg): 0.96/0.95 at 0.17
       cells per tick, 0.97/0.96 at 0.3, 0.99/0.97 at 0.4, 1.00/0.99 at 0.6, 1.00 at 0.8 and
       1.0, 0.99 at 1.4. Gain 1.05 up to 0.2 cells per tick, 1.0 from 0.6, linear between.
-    cell_size_m: 0.25 m while the packet moves at most MAX_CELLS_PER_TICK (1.5) cells per tick
-      (its speed is still within 1% of the shift at 1.4); above, the cell grows to keep 1.5.
+    cell_size_m: 0.25 m while the packet moves at most MAX_CELLS_PER_TICK (0.75) cells per tick;
+      above, the cell grows to keep 0.75. On straight runs the packet keeps up to 1.4 cells per
+      tick, but on a real drive it does not hold together: Plaza 2 (0.34 m per tick, laddered)
+      snaps 247 / 219 / 162 / 87 times in 4090 ticks at 1.37 / 1.0 / 0.75 / 0.6 cells per tick,
+      and each snap freezes the map for snap_settle_ticks (92 experiences at 1.37, 158 at 0.75).
+      Map ATE, seed 0, with the re-entry fusion: 3.01 / 4.06 / 1.60 / 1.63 m (fusion off: 2.41 m
+      at 1.37; 1.37 m at 0.75). 0.75 leaves Plaza 1 (0.69 cells per tick) and the simulator
+      (0.17) at 0.25 m cells; bigger cells hurt Plaza 1 (below).
+    Re-entry fusion (RatSLAMConfig.reentry_*; only when the odometry noise departs from the
+      reference, i.e. with the pose graph's revisit-tested noise; the simulator keeps it off):
+      reentry_position_sigma_m = closure_sigma_xy (the pose graph's closure noise: one scene cell),
+      reentry_heading_sigma_deg = one heading cell / sqrt(12) (2.89 deg; measured pose-cell
+      heading error at Plaza re-entries 2.0-3.2 deg rms), odom_speed_noise / odom_heading_noise
+      = odom_sigma_v / odom_sigma_w. Measured in RatSLAMConfig's docstring: Plaza 1 experience
+      map 1.33/1.62/1.77 -> 1.30/1.33/1.39 m (seeds 0/1/2; odometry 1.47 m).
   Everything else keeps its default, also the tick-based windows and the zones of influence,
   because scaling them with the log did not help (measured on Plaza 1, experience-map ATE,
   seeds 0 / 1, odometry 1.47 m; pc_trans_gain 1.0 throughout): defaults 1.33 / 1.62 m;
@@ -87,8 +100,10 @@ REFERENCE_LABEL_LENGTH_M = 0.9
 """Label length (see :func:`measure_log`) of the simulator's 1 m scene cells."""
 REFERENCE_NOISE = 0.01
 """Per-tick odometry noise of the simulator, m/s and rad/s."""
-MAX_CELLS_PER_TICK = 1.5
+MAX_CELLS_PER_TICK = 0.75
 GAIN_SLOW, GAIN_FAST = (0.2, 1.05), (0.6, 1.0)   # (cells per tick, pc_trans_gain)
+REENTRY_HEADING_SIGMA_CELLS = 1.0 / math.sqrt(12.0)
+"""Heading uncertainty of a re-entry, in heading cells (uniform over one cell)."""
 
 
 @dataclass(frozen=True)
@@ -290,12 +305,20 @@ def derive_configs(log, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphCo
                             f"x{revisits.k_w:g} (x{revisits.support_w[0]:g}-x{revisits.support_w[1]:g}), onset scatter "
                             f"x{revisits.k_closure:g} of closure_sigma_xy; used x{k_v:g}, x{k_w:g}.")
         pg_new = dataclasses.replace(pg_new, odom_sigma_v=pg.odom_sigma_v * k_v, odom_sigma_w=pg.odom_sigma_w * k_w)
+        # RatSLAM's re-entry fusion, with the pose graph's noise model (module doc)
+        rs_new = rs_new.replace(reentry_position_sigma_m=pg_new.closure_sigma_xy,
+                                reentry_heading_sigma_deg=REENTRY_HEADING_SIGMA_CELLS * 360.0 / rs.n_theta,
+                                odom_speed_noise=pg_new.odom_sigma_v, odom_heading_noise=pg_new.odom_sigma_w)
     text = (f"Measured from the log (no ground truth): tick {m.dt:.3f} s, moving speed {m.speed:.3f} m/s, "
             f"{m.step:.4f} m per tick (x{k_step:g} of the reference 0.3 m/s at 7 Hz), label length {m.label_length:.2f} m "
             f"(x{k_scene:g} of {REFERENCE_LABEL_LENGTH_M} m), odometry noise {m.sigma_v:.4f} m/s, {m.sigma_w:.4f} rad/s "
             f"(x{rough_v:g}, x{rough_w:g} of {REFERENCE_NOISE})." + revisit_text + "\n"
             f"Derived: RatSLAM cell_size_m {rs_new.cell_size_m:g} ({cpt:.2f} cells per tick), pc_trans_gain "
-            f"{rs_new.pc_trans_gain:g}; GTSAM keyframe_distance {pg_new.keyframe_distance:g} m, closure_sigma_xy "
+            f"{rs_new.pc_trans_gain:g}"
+            + (f", re-entry fusion (reentry_position_sigma_m {rs_new.reentry_position_sigma_m:.3f}, "
+               f"reentry_heading_sigma_deg {rs_new.reentry_heading_sigma_deg:.2f}, odom_speed_noise "
+               f"{rs_new.odom_speed_noise:g}, odom_heading_noise {rs_new.odom_heading_noise:g})"
+               if rs_new.reentry_position_sigma_m > 0 else "") + f"; GTSAM keyframe_distance {pg_new.keyframe_distance:g} m, closure_sigma_xy "
             f"{pg_new.closure_sigma_xy:.3f} m, closure_min_travel {pg_new.closure_min_travel:g} m, odom_sigma_v "
             f"{pg_new.odom_sigma_v:g}, odom_sigma_w {pg_new.odom_sigma_w:g}"
             + (" (the defaults)" if rs_new == rs and pg_new == pg else "") + ".")

@@ -109,6 +109,42 @@ class RatSLAMConfig:
         with more than two links and diverges (kept for the record, not for use; measured: the
         small_loop map's poses become non-finite within the 15-minute run).
       correction_iterations: correction passes per tick (the paper runs one per tick).
+
+    Re-entry fusion (not in the paper; off by default, derived for real logs by harness/scale.py):
+      reentry_position_sigma_m, reentry_heading_sigma_deg: how well a re-entry (a switch to an
+        experience) places the robot: 1-sigma per axis and in heading. Both 0 (the default) is
+        the paper: the pose after a re-entry is wherever the pose cells say, relative to the
+        experience (``offset_transitions``), as if the view were exact. Both positive: the map
+        also predicts that pose (the previous experience's map pose plus the odometry since), with
+        a covariance grown from the odometry noise below since the last re-entry (first-order
+        propagation in the map frame), and a Kalman update fuses the two; the link and the new
+        current pose take the fused pose, and the covariance shrinks. Where the odometry is much
+        better than the view (long straight drives with a heading that does not drift, scene cells
+        of 2 m recognised anywhere within them) a re-entry then corrects the pose only by as much
+        as it knows better; with zero covariance (just after a re-entry) it changes nothing.
+        Cause, measured on CMU Plaza 1 (analysis against ground truth): the pose cells' heading at a
+        re-entry errs 2.0-3.2 deg rms and its place ~0.7 m (the packet is snapped onto the
+        experience's cells although the vehicle drove a parallel lane); the odometry heading does
+        not drift. With those errors the map's least-squares optimum is 1.86 m ATE (seed 2) where
+        the same links with the closures' true headings give 1.49 m and with true closures
+        1.38 m: each re-entry bent the map by the pose cells' heading error.
+      odom_speed_noise, odom_heading_noise: white noise on the odometry's speed (m/s) and yaw
+        rate (rad/s) per tick, for the prediction's covariance (only used with the fusion on).
+      Measured (derived configs: sigmas = the pose graph's closure_sigma_xy and one heading cell
+      / sqrt(12) = 2.89 deg, the noise = the pose graph's revisit-tested odometry noise), RatSLAM
+      ATE online / experience map, Plaza 1 seeds 0/1/2 (odometry 1.47 m):
+          fusion off   1.68/2.13/2.44 // 1.33/1.62/1.77 m
+          fusion on    1.42/1.45/1.52 // 1.30/1.33/1.39 m
+      Plaza 2 seeds 0/1/2, 0.457 m cells (odometry 15.9 m): off 2.82/2.69/2.91 // 1.37/1.30/1.31 m,
+      on 2.98/2.75/2.25 // 1.60/1.87/1.41 m (its heading drifts 8.7 deg per 100 m, so the
+      odometry is trusted less and the pose cells' re-entries still hold the map).
+      Heading-only fusion (position from the pose cells) with heading sigma 2.89 / 5.77 / 11.5 deg:
+      Plaza 1 maps 1.32/1.32/1.54, 1.33/1.28/1.48, 1.33/1.26/1.45 m, Plaza 2 (0.457 m cells)
+      1.46/1.33/1.53, 1.86/1.66/1.99, 2.97/2.58/3.14 m: no single value served both logs.
+      Weighting re-entry links less in eqs 12-14 (weights 0.25 and 0.0625) did not help
+      (Plaza 1 maps 1.31/1.61/1.82 and 1.29/1.60/1.86 m): a re-entry's error is carried by the
+      links that follow it (new experiences are laid out from the re-entered one), not by
+      the re-entry link alone.
     """
 
     # pose cells
@@ -146,6 +182,10 @@ class RatSLAMConfig:
     alpha_d: float = 0.5
     correction: str = "stable"
     correction_iterations: int = 1
+    reentry_position_sigma_m: float = 0.0
+    reentry_heading_sigma_deg: float = 0.0
+    odom_speed_noise: float = 0.0
+    odom_heading_noise: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("nx", "ny", "n_theta"):
@@ -184,6 +224,12 @@ class RatSLAMConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and 0 <= value <= 1):
                 raise ValueError(f"{name} must be in [0, 1], got {value!r}")
+        for name in ("reentry_position_sigma_m", "reentry_heading_sigma_deg", "odom_speed_noise", "odom_heading_noise"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
+        if (self.reentry_position_sigma_m > 0) != (self.reentry_heading_sigma_deg > 0):
+            raise ValueError("reentry_position_sigma_m and reentry_heading_sigma_deg: both 0 (off) or both positive")
         if not isinstance(self.correction_iterations, int) or self.correction_iterations < 0:
             raise ValueError(f"correction_iterations must be a non-negative integer, got {self.correction_iterations!r}")
         if self.correction not in _CORRECTIONS:

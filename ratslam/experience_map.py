@@ -20,6 +20,12 @@ influence; with ``offset_transitions`` the new link is measured to the experienc
 the current pose starts at that offset, so a consistent map neither gains an error nor makes
 the pose jump at a re-entry.
 
+Re-entry fusion (``reentry_position_sigma_m`` / ``reentry_heading_sigma_deg`` > 0; not in the
+paper, see RatSLAMConfig): at a switch, the pose the pose cells give (the experience's map pose
+composed with the peak's offset) and the pose the map and the odometry predict (the current pose)
+are fused by a Kalman update, the prediction's covariance grown from the odometry noise since
+the last re-entry; the link and the current pose use the fused pose.
+
 Map correction (eqs 12-14), every tick, all experiences at once (Jacobi)::
 
     Δθ_i = α_θ [ Σ_j (θ_j - θ_i - φ_ij) + Σ_k (θ_k - θ_i + φ_ki) ]
@@ -106,6 +112,12 @@ class ExperienceMap:
         self.current = -1
         # odometry accumulated since the current experience was entered, in its frame
         self._acc = np.zeros(4)  # x, y, phi, t
+        # re-entry fusion (off with zero view sigmas): covariance of the current pose relative to
+        # the map, in the map frame, grown by the odometry noise since the last re-entry
+        self._fuse = config.reentry_position_sigma_m > 0.0
+        self._cov = np.zeros((3, 3))
+        self._view_cov = np.diag([config.reentry_position_sigma_m ** 2, config.reentry_position_sigma_m ** 2,
+                                  math.radians(config.reentry_heading_sigma_deg) ** 2])
         self._grid = np.array(config.shape, dtype=float)
         self._divisor_key = None
 
@@ -170,6 +182,19 @@ class ExperienceMap:
         acc[0] += v_trans * dt * math.cos(acc[2])
         acc[1] += v_trans * dt * math.sin(acc[2])
         acc[3] += dt
+        if self._fuse:
+            self._propagate(dt, v_trans)
+
+    def _propagate(self, dt: float, v_trans: float) -> None:
+        """Grow the pose covariance by one tick of odometry noise (first-order, map frame)."""
+        cfg = self.config
+        th = self.pose[2]
+        c, s = math.cos(th), math.sin(th)
+        step = v_trans * dt
+        F = np.array([[1.0, 0.0, -s * step], [0.0, 1.0, c * step], [0.0, 0.0, 1.0]])
+        sv, sw = (cfg.odom_speed_noise * dt) ** 2, (cfg.odom_heading_noise * dt) ** 2
+        Q = np.array([[c * c * sv, c * s * sv, 0.0], [c * s * sv, s * s * sv, 0.0], [0.0, 0.0, sw]])
+        self._cov = F @ self._cov @ F.T + Q
 
     # ------------------------------------------------------------------ eqs 2-9
     def energy(self, peak_cell: np.ndarray, view: int, ids: np.ndarray | None = None) -> np.ndarray:
@@ -244,11 +269,31 @@ class ExperienceMap:
             return "create"
         if best != self.current:
             offset = self.peak_offset(best, peak_cell) if self.config.offset_transitions else (0.0, 0.0, 0.0)
+            if self.current >= 0 and self._fuse:
+                offset = self.fuse_reentry(best, offset)
             if self.current >= 0:
                 self._add_link(self.current, best, offset)
             self._enter(best, tick, offset)
             return "switch"
         return "none"
+
+    def fuse_reentry(self, j: int, offset):
+        """Kalman update at a re-entry into ``j``: the pose the pose cells give (``offset`` in
+        ``j``'s frame; covariance from the reentry sigmas) fused with the pose the map and the
+        odometry predict (covariance grown since the last re-entry). Returns the fused pose as
+        an offset in ``j``'s frame and shrinks the covariance."""
+        c = self._exp.cols
+        xj, yj, tj = c["x"][j], c["y"][j], c["th"][j]
+        cj, sj = math.cos(tj), math.sin(tj)
+        meas = np.array([xj + cj * offset[0] - sj * offset[1], yj + sj * offset[0] + cj * offset[1], tj + offset[2]])
+        pred = np.array(self.pose)
+        nu = meas - pred
+        nu[2] = _wrap_scalar(nu[2])
+        gain = self._cov @ np.linalg.inv(self._cov + self._view_cov)
+        fused = pred + gain @ nu
+        self._cov = (np.eye(3) - gain) @ self._cov
+        dx, dy = fused[0] - xj, fused[1] - yj
+        return (cj * dx + sj * dy, -sj * dx + cj * dy, _wrap_scalar(fused[2] - tj))
 
     def peak_offset(self, j: int, peak_cell: np.ndarray) -> tuple[float, float, float]:
         """Where the pose-cell peak is relative to experience ``j``'s cells, in ``j``'s frame:
@@ -315,6 +360,7 @@ class ExperienceMap:
         s.update({f"lk_{k}": self._link.view(k).copy() for k in self._link.cols})
         s["em_current"] = np.array([self.current], dtype=np.int64)
         s["em_acc"] = self._acc.copy()
+        s["em_cov"] = self._cov.copy()
         return s
 
     def set_state(self, s: dict) -> None:
@@ -323,6 +369,7 @@ class ExperienceMap:
         self._link.load({k: s[f"lk_{k}"] for k in self._link.cols})
         self.current = int(s["em_current"][0])
         self._acc = np.asarray(s["em_acc"], dtype=float).copy()
+        self._cov = np.asarray(s["em_cov"], dtype=float).copy() if "em_cov" in s else np.zeros((3, 3))
         self._divisor_key = None
         self._by_view = {}
         for i, v in enumerate(self.views):

@@ -266,3 +266,78 @@ def test_duplicate_transitions_are_not_added():
     em.update(3, np.array([10.0, 0.0, 0.0]), 2)  # 0 -> 1 again: already linked
     assert em.size == 2
     assert em.links.tolist() == [[0, 1]]
+
+
+# ---------------------------------------------------------------- re-entry fusion (not in the paper)
+FUSE = CFG.replace(reentry_position_sigma_m=0.5, reentry_heading_sigma_deg=5.0,
+                   odom_speed_noise=0.1, odom_heading_noise=0.01)
+
+
+def test_reentry_fusion_is_off_by_default_and_needs_both_sigmas():
+    assert CFG.reentry_position_sigma_m == 0.0 and CFG.reentry_heading_sigma_deg == 0.0
+    em = ExperienceMap(CFG)
+    em.integrate(1.0, 1.0, 0.1)
+    np.testing.assert_array_equal(em._cov, 0.0)          # nothing is tracked when off
+    with pytest.raises(ValueError):
+        CFG.replace(reentry_position_sigma_m=0.5)
+    with pytest.raises(ValueError):
+        CFG.replace(reentry_heading_sigma_deg=3.0, reentry_position_sigma_m=0.5, odom_speed_noise=-1.0)
+
+
+def test_odometry_covariance_grows_along_track_and_across_it_through_the_heading():
+    em = ExperienceMap(FUSE)
+    em.add_experience((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1, 0)
+    em._enter(0, 0)
+    for _ in range(100):                                  # 100 m straight along x at 1 m/s
+        em.integrate(1.0, 1.0, 0.0)
+    cov = em._cov
+    assert cov[0, 0] == pytest.approx(100 * 0.1 ** 2)     # white speed noise: linear in ticks
+    assert cov[2, 2] == pytest.approx(100 * 0.01 ** 2)
+    # heading random walk: cross-track variance sum_k (k * 0.01)^2 ~ 0.01^2 * n^3 / 3
+    assert cov[1, 1] == pytest.approx(0.01 ** 2 * sum(k * k for k in range(100)), rel=1e-9)
+
+
+def _reentry(cov):
+    """Experience 0 at the origin; the robot drove a loop and the map and odometry put it at
+    (0.4, 0.0, 0.0) in experience 0's frame, the pose cells at (0.0, 0.0, 0.1) (cell offset)."""
+    em = ExperienceMap(FUSE)
+    em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 7, 0)
+    em.add_experience((5.0, 0.0, math.pi), (30.0, 10.0, 18.0), 8, 1)
+    em._enter(1, 1)
+    em._acc[:] = (4.6, 0.0, math.pi, 10.0)            # 4.6 m on from experience 1, turned back
+    em._cov = np.array(cov, dtype=float)
+    pc = (0.0, 0.0, 0.1)
+    return em, em.fuse_reentry(0, pc)
+
+
+def test_reentry_fusion_keeps_the_odometry_when_it_is_certain():
+    em, off = _reentry(np.zeros((3, 3)))
+    assert off == pytest.approx((0.4, 0.0, 0.0), abs=1e-12)
+    np.testing.assert_array_equal(em._cov, 0.0)
+
+
+def test_reentry_fusion_takes_the_pose_cells_when_the_odometry_is_lost():
+    em, off = _reentry(np.eye(3) * 1e9)
+    assert off == pytest.approx((0.0, 0.0, 0.1), abs=1e-6)
+    assert em._cov[0, 0] == pytest.approx(0.5 ** 2, rel=1e-6)   # posterior: the view's
+
+
+def test_reentry_fusion_weighs_the_two_by_their_variances():
+    view = np.diag([0.5 ** 2, 0.5 ** 2, math.radians(5.0) ** 2])
+    em, off = _reentry(view)                              # equal variances: the midpoint
+    assert off == pytest.approx((0.2, 0.0, 0.05), abs=1e-12)
+    np.testing.assert_allclose(em._cov, view / 2, rtol=1e-12)
+
+
+def test_reentry_fusion_sets_link_and_pose_from_the_fused_offset():
+    """Through update(): the switch's link and the current pose use the fused pose."""
+    em = ExperienceMap(FUSE)
+    em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 5, 0)
+    em.add_experience((1.0, 0.0, 0.0), (14.0, 10.0, 0.0), 6, 1)
+    em._enter(1, 1)
+    em.integrate(1.0, -1.0, 0.0)                          # back to where experience 0 is, exactly
+    em._cov = np.zeros((3, 3))                            # ... and certain of it
+    # the pose cells put the robot 0.25 m (one cell) ahead of experience 0, 10 deg turned
+    assert em.update(3, np.array([11.0, 10.0, 1.0]), 5) == "switch"
+    assert em.pose == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
+    np.testing.assert_allclose(em.link_residuals()[-1], 0.0, atol=1e-12)

@@ -25,9 +25,6 @@ VARIANTS = {"fig4": (), "plaza1": (), "plaza2": ()}
 # stay as strict expected failures, so the day one of them holds the suite says so; they are not
 # loosened.
 KNOWN_FAILURES = {
-    ("plaza1", "gtsam_improves"): "Plaza 1: the pose graph's keyframes (1.58 m) do not beat the vehicle's "
-                                        "dead reckoning (1.47 m ATE): labels of 2 m cells add little to good "
-                                        "odometry, see the figure's notes",
     ("fig11", "g_h_two_pose_cell_loops"): "full floor: the pose cells relocalise the second lap of the room "
                                           "onto the first (lap centres 0.03 m apart; 0.30 m even with "
                                           "view injection off), see the figure's notes",

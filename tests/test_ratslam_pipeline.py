@@ -183,9 +183,14 @@ def test_single_false_positive_tick_does_not_move_the_peak():
     assert max(moved) < 0.5
 
 
-def test_save_load_round_trip_is_exact(tmp_path):
+@pytest.mark.parametrize("fusion", [False, True])
+def test_save_load_round_trip_is_exact(tmp_path, fusion):
     stream = synthetic_stream(1200)
-    a = run(RatSLAM(), stream, 0, 700)
+    cfg = RatSLAMConfig()
+    if fusion:   # the re-entry fusion's covariance is state too
+        cfg = cfg.replace(reentry_position_sigma_m=0.3, reentry_heading_sigma_deg=3.0,
+                          odom_speed_noise=0.02, odom_heading_noise=0.02)
+    a = run(RatSLAM(cfg), stream, 0, 700)
     path = tmp_path / "state.npz"
     a.save(path)
     b = RatSLAM.load(path)

@@ -70,8 +70,9 @@ def test_a_faster_vehicle_gets_scaled_fields():
 
 def test_packet_speed_is_capped_by_larger_cells():
     rs, _, _ = derive_configs(_drive(16 * 0.3 / 7, 10.0, 4.0))     # 0.69 m per tick
-    assert rs.cell_size_m == pytest.approx(16 * 0.3 / 7 / 1.5)
+    assert rs.cell_size_m == pytest.approx(16 * 0.3 / 7 / 0.75)
     assert rs.pc_trans_gain == 1.0
+    assert rs.reentry_position_sigma_m == 0.0               # reference odometry noise: fusion off
 
 
 def test_ground_truth_never_enters_the_derivation():
@@ -128,9 +129,14 @@ def test_revisits_replace_a_roughness_reading_that_they_reject():
     assert r is not None and r.pairs > 100
     assert r.k_w <= 0.5                                        # the revisits: no heading drift
     assert r.support_v[0] >= 4.0                               # and more than 0.04 m/s along track
-    _, pg, text = derive_configs(log)
+    rs, pg, text = derive_configs(log)
     assert pg.odom_sigma_w <= 0.005 and pg.odom_sigma_v >= 0.04
     assert "Revisits" in text
+    # RatSLAM's re-entry fusion takes the same noise model
+    assert rs.reentry_position_sigma_m == pg.closure_sigma_xy
+    assert rs.reentry_heading_sigma_deg == pytest.approx(10.0 / np.sqrt(12.0))
+    assert (rs.odom_speed_noise, rs.odom_heading_noise) == (pg.odom_sigma_v, pg.odom_sigma_w)
+    assert "re-entry fusion" in text
 
 
 def test_revisits_keep_a_roughness_reading_within_their_support():
