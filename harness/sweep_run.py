@@ -35,12 +35,18 @@ _ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THR
 
 # ---------------------------------------------------------------------------- one run
 
+# What a run's result depends on: the SLAM packages, the simulator and worlds, and the harness
+# modules that run a stream and measure it (not the figures, reports or CLI).
+_RESULT_SOURCES = ("ratslam/*.py", "baselines/*.py", "worlds/*.py", "worlds/*.toml", "harness/sweep_run.py",
+                   "harness/metrics.py", "harness/evaluate.py", "harness/runner.py")
+
+
 def code_version() -> str:
-    """A hash of the source of the four packages (what a run's result depends on)."""
+    """A hash of the source a run's result depends on (``_RESULT_SOURCES``)."""
     root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
-    for package in ("ratslam", "baselines", "worlds", "harness"):
-        for f in sorted((root / package).glob("*.py")) + sorted((root / package).glob("*.toml")):
+    for pattern in _RESULT_SOURCES:
+        for f in sorted(root.glob(pattern)):
             h.update(f.relative_to(root).as_posix().encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
