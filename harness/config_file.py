@@ -86,14 +86,19 @@ def _typed(path, table: str, key: str, value, kind: type):
     raise ConfigFileError(f"{path}: [{table}] {key}: cannot be set from a file")
 
 
+def read_toml(path: Path, error: type[Exception]) -> dict:
+    """The parsed TOML file, or ``error`` with one line naming the file and the problem."""
+    text = read_text(path, error)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise error(f"{path}: not valid TOML ({e})") from None
+
+
 def read_config_file(path) -> ConfigOverrides:
     """Read and validate a configuration file (types here, values when applied)."""
     path = Path(path)
-    text = read_text(path, ConfigFileError)
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigFileError(f"{path}: not valid TOML ({e})") from None
+    raw = read_toml(path, ConfigFileError)
     tables = {}
     for table, values in raw.items():
         if table not in TABLES:

@@ -36,16 +36,14 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
 from worlds import load_world
-from worlds.observation_log import read_text
 
-from .config_file import _field_types, _typed
+from .config_file import _field_types, _typed, read_toml
 
 SYSTEM_CONFIGS = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 DESIGNS = ("one-at-a-time", "grid")
@@ -250,11 +248,7 @@ def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
 def read_sweep_spec(path) -> SweepSpec:
     """Read and validate a sweep spec (everything checked before anything runs)."""
     path = Path(path)
-    text = read_text(path, SweepSpecError)
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SweepSpecError(f"{path}: not valid TOML ({e})") from None
+    raw = read_toml(path, SweepSpecError)
     unknown = set(raw) - {"design", "max_runs", "base", "axes", "seeds", "systems"}
     if unknown:
         _fail(path, sorted(unknown)[0], "unknown key or table (expected design, max_runs, [base], [axes], "
