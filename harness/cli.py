@@ -316,8 +316,9 @@ def _harness_errors() -> tuple[type, ...]:
     from .report import ReportError
     from .run_dir import OutputError
     from .sweep_report import SweepReportError
+    from .sweep_run import SchedulerError
 
-    return (ReportError, OutputError, SweepReportError, RuntimeError)
+    return (ReportError, OutputError, SweepReportError, SchedulerError)
 
 
 def _interrupt(signum, frame):

@@ -237,10 +237,12 @@ def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
     and labels; the simulator's own streams get exactly the defaults)."""
     log = ObservationLog.read_csv(log_path)
-    derived_rs, derived_pg, derivation = derive_configs(log)
-    rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if ratslam_config is not None and gtsam_config is not None:
+        rs_cfg, pg_cfg = ratslam_config, gtsam_config
         derivation = "Configurations given by the caller (nothing derived from the log)."
+    else:
+        derived_rs, derived_pg, derivation = derive_configs(log)
+        rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     out = Path(out)
@@ -260,7 +262,7 @@ def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
         m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg)}
         m["derived_scale"] = derivation
         metrics = {"figure": None, "title": f"replay of {Path(log_path).name}", "log": str(log_path),
-                   "duration_s": float(log.t[-1]), "variants": {"replay": m},
+                   "duration_s": log.duration, "variants": {"replay": m},
                    "provenance": provenance(log=str(log_path))}
         write_json(stage / "metrics.json", metrics)
         write_report(stage)

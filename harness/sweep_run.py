@@ -1,7 +1,7 @@
 """Running a sweep: one task per (condition, seed), on a local process pool or a Dask cluster.
 
 Each run simulates its condition once and runs every configured system on that stream
-(:func:`run_one`, a pure function of its task: same task, same result, bit for bit). The driver
+(:func:`harness.sweep_task.run_one`, a pure function of its task). The driver
 (:func:`run_sweep`) hands the missing runs to an :class:`Executor` and writes each result as it
 arrives, staged and moved into place, into ``runs/<run id>/result.json``; the run id is a hash of
 the run's full specification (world, duration, condition, seed, system configurations, code
@@ -15,29 +15,28 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import sys
 import time
-import traceback
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
-import numpy as np
-
 from worlds.observation_log import atomic_write_text
 
 from .sweep_spec import AXES, SweepSpec, system_config
+from .sweep_task import run_one
 
 # BLAS and compiled-kernel threads per worker: every worker is one process on one core.
 _ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                "NUMBA_NUM_THREADS": "1"}
 
 
-# ---------------------------------------------------------------------------- one run
+# ---------------------------------------------------------------------------- tasks
 
 # What a run's result depends on: the SLAM packages, the simulator and worlds, and the harness
 # modules that run a stream and measure it (not the figures, reports or CLI).
-_RESULT_SOURCES = ("ratslam/*.py", "baselines/*.py", "worlds/*.py", "worlds/*.toml", "harness/sweep_run.py",
+_RESULT_SOURCES = ("ratslam/*.py", "baselines/*.py", "worlds/*.py", "worlds/*.toml", "harness/sweep_task.py",
                    "harness/metrics.py", "harness/evaluate.py", "harness/runner.py")
 
 
@@ -73,93 +72,11 @@ def run_tasks(spec: SweepSpec, code: str) -> list[dict]:
     return tasks
 
 
-def condition_world(world_name: str, condition: dict, lookalikes: bool = True):
-    """The world with the condition's scene and odometry values (and the simulate() arguments);
-    ``condition`` has a value for every axis; ``lookalikes`` False gives the world's look-alike
-    regions their own scenes."""
-    from worlds import load_world
-
-    world = load_world(world_name)
-    scenes, odo = world.scenes, world.odometry
-    scenes = dataclasses.replace(
-        scenes,
-        alias_rate=condition.get("alias_rate", scenes.alias_rate),
-        blank_rate=condition.get("blank_rate", scenes.blank_rate),
-        lookalikes=scenes.lookalikes if lookalikes else (),
-    )
-    scale = condition.get("odometry_noise_scale", 1.0)
-    odo = dataclasses.replace(odo, noise_trans=odo.noise_trans * scale, noise_rot=odo.noise_rot * scale)
-    world = dataclasses.replace(world, scenes=scenes, odometry=odo)
-    return world, {"bias_deg_s": condition["odometric_bias"], "fp_rate": condition["fp_rate"]}
-
-
-def _ate(est, gt) -> float:
-    from . import metrics
-
-    return float(metrics.ate_rmse(est, gt)) if len(est) >= 2 else math.nan
-
-
-def _run_system(kind: str, config_fields: dict, log, gt: np.ndarray) -> dict:
-    """One system over the whole log: accuracy (online and map), sizes, wall time."""
-    from baselines import PoseGraphConfig, PoseGraphSLAM
-    from ratslam import RatSLAM, RatSLAMConfig
-
-    from .evaluate import CLOSURE_TRUE_DISTANCE, _closure_quality
-
-    system = (RatSLAM(RatSLAMConfig(**config_fields)) if kind == "ratslam"
-              else PoseGraphSLAM(PoseGraphConfig(**config_fields)))
-    n = len(log)
-    online = np.zeros((n, 3))
-    snaps = 0
-    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
-    t0 = time.perf_counter()
-    for k, (dt, v, w, scene) in enumerate(rows):
-        system.step(dt, v, w, scene)
-        online[k] = system.pose
-        if kind == "ratslam":
-            snaps += system.snapped
-    if kind == "gtsam":
-        system.finalize()
-    wall = time.perf_counter() - t0
-    out = {"ate_online": _ate(online, gt), "wall_s": wall}
-    if kind == "ratslam":
-        ticks = system.experience_first_tick
-        out.update(ate_map=_ate(system.experience_poses, gt[ticks]), nodes=int(len(ticks)),
-                   snaps=int(snaps), closure_precision=None, closure_recall=None)
-    else:
-        ticks = system.keyframe_ticks
-        lc = _closure_quality(system, gt, CLOSURE_TRUE_DISTANCE)
-        out.update(ate_map=_ate(system.keyframe_poses, gt[ticks]), nodes=int(len(ticks)), snaps=None,
-                   closure_precision=lc["precision"], closure_recall=lc["recall"])
-    return out
-
-
-def run_one(task: dict) -> dict:
-    """Simulate the task's condition once and run every system on that stream. Never raises: a
-    failure is returned as a one-line ``error`` (the sweep records it and goes on)."""
-    start = time.perf_counter()
-    try:
-        from worlds import simulate
-
-        from .runner import dead_reckon
-
-        world, sim_args = condition_world(task["world"], task["condition"], task.get("lookalikes", True))
-        log = simulate(world, duration=task["duration"], seed=task["seed"], **sim_args)
-        gt = log.ground_truth()
-        systems = {s["name"]: {"kind": s["kind"], **_run_system(s["kind"], s["config"], log, gt)}
-                   for s in task["systems"]}
-        result = {"ate_odometry": _ate(dead_reckon(log), gt), "ticks": len(log), "systems": systems,
-                  "error": None}
-    except Exception as e:  # noqa: BLE001 - recorded, the sweep goes on
-        where = traceback.extract_tb(e.__traceback__)[-1]
-        result = {"error": f"{type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''} "
-                           f"({Path(where.filename).name}:{where.lineno})", "systems": {}}
-    result["wall_s"] = time.perf_counter() - start
-    result["pid"] = os.getpid()
-    return result
-
-
 # ---------------------------------------------------------------------------- executors
+
+class SchedulerError(RuntimeError):
+    """The Dask cluster cannot be used (one line: address and problem)."""
+
 
 class Executor:
     """Runs ``fn`` over tasks somewhere; yields (task, result) as each finishes."""
@@ -175,10 +92,6 @@ class Executor:
         self.close()
 
 
-def _pin_threads() -> None:
-    os.environ.update(_ONE_THREAD)
-
-
 class LocalExecutor(Executor):
     """A pool of ``workers`` fresh processes on this machine (one BLAS thread each)."""
 
@@ -187,7 +100,7 @@ class LocalExecutor(Executor):
 
         self.workers = max(1, int(workers))
         saved = {k: os.environ.get(k) for k in _ONE_THREAD}
-        _pin_threads()  # inherited by the spawned workers, which import numpy afresh
+        os.environ.update(_ONE_THREAD)  # inherited by the spawned workers, which import numpy afresh
         try:
             self._pool = ProcessPoolExecutor(max_workers=self.workers,
                                              mp_context=multiprocessing.get_context("spawn"))
@@ -220,18 +133,18 @@ class LocalExecutor(Executor):
 
 
 class DaskExecutor(Executor):
-    """The tasks on a Dask distributed cluster at ``address`` (``tcp://HOST:8786``)."""
+    """The tasks on a Dask distributed cluster at ``address`` (``tcp://HOST:8786``). Dask's nanny
+    starts each worker process with one BLAS/OpenMP thread (``distributed.nanny.pre-spawn-environ``)."""
 
     def __init__(self, address: str):
         try:
             from distributed import Client
         except ImportError:
-            raise RuntimeError("--scheduler needs Dask distributed: pip install -e '.[cluster]'") from None
+            raise SchedulerError("--scheduler needs Dask distributed: pip install -e '.[cluster]'") from None
         try:
             self._client = Client(address, timeout="20s")
         except OSError as e:
-            raise RuntimeError(f"{address}: cannot reach the Dask scheduler ({e})") from None
-        self._client.run(_pin_threads)
+            raise SchedulerError(f"{address}: cannot reach the Dask scheduler ({e})") from None
 
     def run(self, fn, tasks):
         from distributed import as_completed
@@ -267,8 +180,6 @@ def _write_result(runs_dir: Path, task: dict, result: dict) -> None:
     stage.mkdir(parents=True, exist_ok=True)
     write_json(stage / "result.json", {"task": task, "result": result})
     if final.exists():  # a result from a run that finished after a kill: keep the first
-        import shutil
-
         shutil.rmtree(stage, ignore_errors=True)
         return
     os.replace(stage, final)
@@ -287,28 +198,28 @@ def run_sweep(spec: SweepSpec, out, workers: int | None = None, scheduler: str |
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     out = Path(out)
     runs_dir = out / "runs"
-    runs_dir.mkdir(parents=True, exist_ok=True)
-    for stale in runs_dir.glob(".*.partial-*"):  # left by a killed sweep
-        import shutil
-
-        shutil.rmtree(stale, ignore_errors=True)
-    atomic_write_text(out / "sweep.toml", Path(spec.path).read_text())  # what the runs were made from
     tasks = run_tasks(spec, code_version())
     unique = list({t["run_id"]: t for t in tasks}.values())
     done = completed(runs_dir, unique)
     todo = [t for t in unique if t["run_id"] not in done]
     total = len(unique)
-    log(f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "
-        f"{len(spec.systems)} systems each")
-    failures = sum(1 for t in unique if t["run_id"] in done
-                   and json.loads((runs_dir / t["run_id"] / "result.json").read_text())["result"]["error"])
-    if todo:
+    executor: Executor | None = None
+    if todo:  # connect before writing anything: an unreachable cluster leaves no directory behind
         if scheduler:
-            executor: Executor = DaskExecutor(scheduler)
+            executor = DaskExecutor(scheduler)
         else:
             from .figure_run import default_workers
 
             executor = LocalExecutor(workers or default_workers(len(todo)))
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    for stale in runs_dir.glob(".*.partial-*"):  # left by a killed sweep
+        shutil.rmtree(stale, ignore_errors=True)
+    atomic_write_text(out / "sweep.toml", Path(spec.path).read_text())  # what the runs were made from
+    log(f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "
+        f"{len(spec.systems)} systems each")
+    failures = sum(1 for t in unique if t["run_id"] in done
+                   and json.loads((runs_dir / t["run_id"] / "result.json").read_text())["result"]["error"])
+    if executor is not None:
         start, finished = time.perf_counter(), 0
         try:
             results = executor.run(run_one, todo)

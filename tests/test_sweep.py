@@ -12,7 +12,8 @@ import pytest
 
 from harness.cli import main
 from harness.sweep_report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
-from harness.sweep_run import run_one, run_sweep
+from harness.sweep_run import run_sweep
+from harness.sweep_task import run_one
 from harness.sweep_spec import SweepSpecError, read_sweep_spec
 
 SPEC = """
