@@ -17,16 +17,16 @@ half-window and the most recent half-window of sightings.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-
 import math
+from collections.abc import Callable, Sequence
 
 
 class SceneIndex:
     """Scene number -> keyframes that saw it, in creation order."""
 
-    def __init__(self, min_travel: float, max_candidates: int, window: int, tolerance: float = 0.0,
-                 early_tolerance: float = 0.0) -> None:
+    def __init__(
+        self, min_travel: float, max_candidates: int, window: int, tolerance: float = 0.0, early_tolerance: float = 0.0
+    ) -> None:
         self._tolerance = tolerance
         self._early_tolerance = early_tolerance
         self._min_travel = min_travel
@@ -64,9 +64,9 @@ class SceneIndex:
             # Earliest-preferring: rank the earliest sightings (what the map is anchored
             # to) and the most recent ones, half the window each.
             half = self._window // 2
-            pool = seen[:half] + seen[-(self._window - half):]
+            pool = seen[:half] + seen[-(self._window - half) :]
         else:
-            pool = seen[-self._window:]
+            pool = seen[-self._window :]
         eligible = [i for i in pool if path_length[i] <= limit]
         if not eligible:
             return []

@@ -346,23 +346,36 @@ class PoseGraphConfig:
         if self.gnc_loss not in GNC_LOSSES:
             raise ValueError(f"gnc_loss: unknown GNC loss {self.gnc_loss!r}, expected one of {GNC_LOSSES}")
         positive = (
-            "keyframe_distance", "keyframe_angle", "odom_sigma_v", "odom_sigma_w",
-            "odom_sigma_lateral", "prior_sigma_xy", "prior_sigma_theta",
-            "closure_sigma_xy", "closure_sigma_theta", "yaw_bias_prior_sigma",
+            "keyframe_distance",
+            "keyframe_angle",
+            "odom_sigma_v",
+            "odom_sigma_w",
+            "odom_sigma_lateral",
+            "prior_sigma_xy",
+            "prior_sigma_theta",
+            "closure_sigma_xy",
+            "closure_sigma_theta",
+            "yaw_bias_prior_sigma",
         )
         for name in positive:
             value = getattr(self, name)
             if not _is_real(value) or not math.isfinite(value) or value <= 0.0:
                 raise ValueError(f"{name}: must be a positive finite number, got {value!r}")
-        for name in ("keyframe_min_distance", "closure_min_travel", "closure_recent_tolerance",
-                     "closure_early_tolerance",
-                     "isam2_relinearize_threshold", "isam2_bias_relinearize_threshold"):
+        for name in (
+            "keyframe_min_distance",
+            "closure_min_travel",
+            "closure_recent_tolerance",
+            "closure_early_tolerance",
+            "isam2_relinearize_threshold",
+            "isam2_bias_relinearize_threshold",
+        ):
             value = getattr(self, name)
             if not _is_real(value) or not math.isfinite(value) or value < 0.0:
                 raise ValueError(f"{name}: must be a non-negative finite number, got {value!r}")
         if not _is_real(self.closure_flush_distance) or not self.closure_flush_distance > 0.0:
-            raise ValueError(f"closure_flush_distance: must be a positive number (inf: never), "
-                             f"got {self.closure_flush_distance!r}")
+            raise ValueError(
+                f"closure_flush_distance: must be a positive number (inf: never), got {self.closure_flush_distance!r}"
+            )
         if self.estimator_k is not None and (
             not _is_real(self.estimator_k) or not math.isfinite(self.estimator_k) or self.estimator_k <= 0.0
         ):
@@ -370,9 +383,7 @@ class PoseGraphConfig:
         if not _is_real(self.accept_weight) or not 0.0 < self.accept_weight <= 1.0:
             raise ValueError(f"accept_weight: must lie in (0, 1], got {self.accept_weight!r}")
         if not _is_real(self.gnc_inlier_probability) or not 0.0 < self.gnc_inlier_probability < 1.0:
-            raise ValueError(
-                f"gnc_inlier_probability: must lie in (0, 1), got {self.gnc_inlier_probability!r}"
-            )
+            raise ValueError(f"gnc_inlier_probability: must lie in (0, 1), got {self.gnc_inlier_probability!r}")
         if self.isam2_relinearize_skip is not None and (
             not _is_int(self.isam2_relinearize_skip) or self.isam2_relinearize_skip < 1
         ):
@@ -385,8 +396,13 @@ class PoseGraphConfig:
             raise ValueError(
                 f"closure_batch_keyframes: must be None or an integer >= 1, got {self.closure_batch_keyframes!r}"
             )
-        for name in ("closure_max_candidates", "closure_candidate_window", "gnc_interval",
-                     "odometry_batch_keyframes", "batch_max_iterations"):
+        for name in (
+            "closure_max_candidates",
+            "closure_candidate_window",
+            "gnc_interval",
+            "odometry_batch_keyframes",
+            "batch_max_iterations",
+        ):
             value = getattr(self, name)
             if not _is_int(value) or value < 1:
                 raise ValueError(f"{name}: must be an integer >= 1, got {value!r}")

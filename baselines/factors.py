@@ -54,15 +54,15 @@ def pose2_logmap_between(poses_i: np.ndarray, poses_j: np.ndarray) -> np.ndarray
     poses_i, poses_j = np.asarray(poses_i, dtype=float).reshape(-1, 3), np.asarray(poses_j, dtype=float).reshape(-1, 3)
     ci, si = np.cos(poses_i[:, 2]), np.sin(poses_i[:, 2])
     dx, dy = poses_j[:, 0] - poses_i[:, 0], poses_j[:, 1] - poses_i[:, 1]
-    tx, ty = ci * dx + si * dy, -si * dx + ci * dy                     # R_i^T (t_j - t_i)
+    tx, ty = ci * dx + si * dy, -si * dx + ci * dy  # R_i^T (t_j - t_i)
     w = np.arctan2(np.sin(poses_j[:, 2] - poses_i[:, 2]), np.cos(poses_j[:, 2] - poses_i[:, 2]))
     c, s = np.cos(w), np.sin(w)
     c_1 = c - 1.0
     det = c_1 * c_1 + s * s
     small = np.abs(w) < 1e-10
     safe = np.where(small, 1.0, det)
-    ux, uy = c * tx + s * ty - tx, -s * tx + c * ty - ty              # R^T t - t
-    vx, vy = -uy * (w / safe), ux * (w / safe)                         # Rot2(pi/2) * (...) * w / det
+    ux, uy = c * tx + s * ty - tx, -s * tx + c * ty - ty  # R^T t - t
+    vx, vy = -uy * (w / safe), ux * (w / safe)  # Rot2(pi/2) * (...) * w / det
     return np.column_stack([np.where(small, tx, vx), np.where(small, ty, vy), w])
 
 

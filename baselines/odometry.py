@@ -28,7 +28,7 @@ def tick_increments(dt: np.ndarray, v: np.ndarray, w: np.ndarray, bias: float = 
     small = np.abs(phi) < _SMALL
     safe = np.where(small, 1.0, phi)
     sin_term = np.where(small, 1.0 - phi * phi / 6.0, np.sin(safe) / safe)
-    cos_term = np.where(small, phi / 2.0 - phi ** 3 / 24.0, (1.0 - np.cos(safe)) / safe)
+    cos_term = np.where(small, phi / 2.0 - phi**3 / 24.0, (1.0 - np.cos(safe)) / safe)
     return a * sin_term, a * cos_term, phi
 
 
@@ -92,7 +92,7 @@ class TickBuffer:
     recomputed from the stored ticks with :func:`integrate`.
     """
 
-    __slots__ = ("dt", "v", "w", "x", "y", "theta", "distance")
+    __slots__ = ("distance", "dt", "theta", "v", "w", "x", "y")
 
     def __init__(self) -> None:
         self.dt: list[float] = []
@@ -114,7 +114,7 @@ class TickBuffer:
         a = v * dt
         phi = (w - bias) * dt
         if abs(phi) < _SMALL:
-            dx, dy = a * (1.0 - phi * phi / 6.0), a * (phi / 2.0 - phi ** 3 / 24.0)
+            dx, dy = a * (1.0 - phi * phi / 6.0), a * (phi / 2.0 - phi**3 / 24.0)
         else:
             dx, dy = a * math.sin(phi) / phi, a * (1.0 - math.cos(phi)) / phi
         c, s = math.cos(self.theta), math.sin(self.theta)
@@ -125,5 +125,4 @@ class TickBuffer:
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The stored ticks as float arrays (dt, v, w)."""
-        return (np.asarray(self.dt, dtype=float), np.asarray(self.v, dtype=float),
-                np.asarray(self.w, dtype=float))
+        return (np.asarray(self.dt, dtype=float), np.asarray(self.v, dtype=float), np.asarray(self.w, dtype=float))

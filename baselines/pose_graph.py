@@ -54,9 +54,13 @@ class PoseGraphSLAM:
         self._kernel = robust_kernel(cfg)
         # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
         self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
-        self._scenes = SceneIndex(cfg.closure_min_travel, cfg.closure_max_candidates,
-                                  cfg.closure_candidate_window, cfg.closure_recent_tolerance,
-                                  cfg.closure_early_tolerance)
+        self._scenes = SceneIndex(
+            cfg.closure_min_travel,
+            cfg.closure_max_candidates,
+            cfg.closure_candidate_window,
+            cfg.closure_recent_tolerance,
+            cfg.closure_early_tolerance,
+        )
         self._isam = make_isam2(cfg) if cfg.online else None
         self._graph = gtsam.NonlinearFactorGraph()  # every factor, for batch / GNC
         self._values = gtsam.Values()  # initial guesses (the estimate when offline)
@@ -112,8 +116,12 @@ class PoseGraphSLAM:
             self._first_keyframe(step_index, scene)
         else:
             buf, cfg = self._buffer, self._config
-            onset = (cfg.keyframe_on_scene_change and scene != -1 and scene != self._prev_scene
-                     and buf.distance >= cfg.keyframe_min_distance)
+            onset = (
+                cfg.keyframe_on_scene_change
+                and scene != -1
+                and scene != self._prev_scene
+                and buf.distance >= cfg.keyframe_min_distance
+            )
             if buf.distance >= cfg.keyframe_distance or abs(buf.theta) >= cfg.keyframe_angle or onset:
                 self._add_keyframe(step_index, scene)
         self._prev_scene = scene
@@ -154,8 +162,7 @@ class PoseGraphSLAM:
     def _add_keyframe(self, step_index: int, scene: int) -> None:
         cfg = self._config
         dt, v, w = self._buffer.arrays()
-        cov = relative_covariance(dt, v, w, cfg.odom_sigma_v, cfg.odom_sigma_w,
-                                  cfg.odom_sigma_lateral, self._bias)
+        cov = relative_covariance(dt, v, w, cfg.odom_sigma_v, cfg.odom_sigma_w, cfg.odom_sigma_lateral, self._bias)
         prev = len(self._kf_ticks) - 1
         j = self._record_keyframe(step_index, scene)
         if cfg.estimate_yaw_bias:
@@ -172,8 +179,7 @@ class PoseGraphSLAM:
         self._graph.add(odo_factor)
         self._values.insert(X(j), guess)
 
-        closures = self._scenes.candidates(scene, self._kf_path, self._path,
-                                           (guess.x(), guess.y()), self._estimate_xy)
+        closures = self._scenes.candidates(scene, self._kf_path, self._path, (guess.x(), guess.y()), self._estimate_xy)
         self._scenes.add(scene, j)
         for i in closures:
             factor = gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(), self._closure_noise)
@@ -192,10 +198,10 @@ class PoseGraphSLAM:
             self._latest = guess
             return
         self._keyframes_since_flush += 1
-        flush = bool(self._pending_closures) and (self._keyframes_since_flush >= cfg.closure_batch
-                                                  or self._disagrees(closures, guess))
-        if (not flush and not cfg.estimate_yaw_bias
-                and len(self._deferred_factors) + 1 < cfg.odometry_batch_keyframes):
+        flush = bool(self._pending_closures) and (
+            self._keyframes_since_flush >= cfg.closure_batch or self._disagrees(closures, guess)
+        )
+        if not flush and not cfg.estimate_yaw_bias and len(self._deferred_factors) + 1 < cfg.odometry_batch_keyframes:
             # Odometry only: iSAM2 would place the keyframe at exactly this guess (its only
             # new factor is satisfied there), so it waits and joins the next update.
             self._deferred_factors.append(odo_factor)
@@ -292,12 +298,12 @@ class PoseGraphSLAM:
     def _recover(self, tagged: list, values: gtsam.Values) -> list[int]:
         """Rebuild iSAM2 (QR) with what it held plus ``tagged``; returns the indices of ``tagged``."""
         self._recoveries += 1
-        theta = self._isam.getLinearizationPoint()          # the estimate so far
+        theta = self._isam.getLinearizationPoint()  # the estimate so far
         n_new_inliers = sum(1 for _, c in tagged if c is None)
-        held = [(self._graph.at(g), None) for g in self._known_inliers[:len(self._known_inliers) - n_new_inliers]]
+        held = [(self._graph.at(g), None) for g in self._known_inliers[: len(self._known_inliers) - n_new_inliers]]
         held += [(self._isam_closure_factor(c), c) for c in range(len(self._lc_i)) if self._lc_isam_index[c] >= 0]
         for attempt in range(2):
-            if attempt == 1:                                  # still refused: without this update's closures
+            if attempt == 1:  # still refused: without this update's closures
                 dropped = [c for _, c in tagged if c is not None]
                 self._closures_dropped += len(dropped)
                 for c in dropped:
@@ -314,8 +320,9 @@ class PoseGraphSLAM:
                     continue
                 source = theta if theta.exists(key) else values
                 if source.exists(key):
-                    initial.insert(key, source.atPose2(key) if gtsam.Symbol(key).chr() == ord("x")
-                                   else source.atVector(key))
+                    initial.insert(
+                        key, source.atPose2(key) if gtsam.Symbol(key).chr() == ord("x") else source.atVector(key)
+                    )
             isam = make_isam2(self._config, factorization="QR")
             try:
                 result = isam.update(graph, initial)
@@ -325,10 +332,10 @@ class PoseGraphSLAM:
                 continue
             self._isam = isam
             indices = list(result.getNewFactorsIndices())
-            for (factor, c), idx in zip(held, indices):
+            for (_factor, c), idx in zip(held, indices):
                 if c is not None:
                     self._lc_isam_index[c] = idx
-            return indices[len(held):]                    # for ``tagged`` as it now stands
+            return indices[len(held) :]  # for ``tagged`` as it now stands
         raise AssertionError("unreachable")
 
     def _disagrees(self, closures: list[int], guess: gtsam.Pose2) -> bool:

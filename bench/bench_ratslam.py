@@ -24,20 +24,20 @@ import os
 # The pose-cell arrays are small: BLAS threads would only contend. Set before numpy loads.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import math  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from streams import STREAMS  # noqa: E402
+from streams import STREAMS
 
-from ratslam import RatSLAM, RatSLAMConfig  # noqa: E402
-from ratslam.pose_cells_reference import FullGridPoseCells  # noqa: E402
+from ratslam import RatSLAM, RatSLAMConfig
+from ratslam.pose_cells_reference import FullGridPoseCells
 
 
 def make_slam(reference: bool = False, n_experiences: int = 0) -> RatSLAM:
@@ -87,8 +87,9 @@ def dense_step_ms() -> tuple[float, float]:
     """One step with activity on every cell: box path vs full-grid reference (ms)."""
     cfg = RatSLAMConfig()
     rng = np.random.default_rng(0)
-    cells = np.stack(np.meshgrid(np.arange(cfg.nx), np.arange(cfg.ny), np.arange(cfg.n_theta),
-                                 indexing="ij"), -1).reshape(-1, 3)
+    cells = np.stack(
+        np.meshgrid(np.arange(cfg.nx), np.arange(cfg.ny), np.arange(cfg.n_theta), indexing="ij"), -1
+    ).reshape(-1, 3)
     energy = rng.uniform(0.5, 1.0, len(cells)) * 1e-3
     out = []
     for reference in (False, True):
@@ -115,11 +116,14 @@ def main() -> None:
     t0 = time.perf_counter()
     warm = make_slam()
     for k in range(5):
-        warm.step(0.14, 0.3, 0.1 * k, k % 2)          # loads (or compiles) the kernels
+        warm.step(0.14, 0.3, 0.1 * k, k % 2)  # loads (or compiles) the kernels
     print(f"kernel warm-up (load or compile): {time.perf_counter() - t0:.2f} s")
 
     print(f"RatSLAM.step, default config 60x60x36, best of {repeats}")
-    print(f"  {'stream':16s} {'ticks':>6s} {'steps/s':>9s} | first {ref_ticks}: {'box':>7s} {'full grid':>9s} {'ratio':>6s}")
+    print(
+        f"  {'stream':16s} {'ticks':>6s} {'steps/s':>9s} | "
+        f"first {ref_ticks}: {'box':>7s} {'full grid':>9s} {'ratio':>6s}"
+    )
     rates = {}
     for name, make in STREAMS.items():
         log = make()
@@ -134,8 +138,10 @@ def main() -> None:
     print(f"  median over streams {np.median(values):.0f} steps/s; worst {worst} {rates[worst]:.0f} steps/s")
 
     box_ms, ref_ms = dense_step_ms()
-    print(f"activity on every cell, one pose-cell step: box path {box_ms:.2f} ms, full grid {ref_ms:.2f} ms, "
-          f"ratio {ref_ms / box_ms:.1f}x")
+    print(
+        f"activity on every cell, one pose-cell step: box path {box_ms:.2f} ms, full grid {ref_ms:.2f} ms, "
+        f"ratio {ref_ms / box_ms:.1f}x"
+    )
 
     print("scaling with experience count (small_loop stream, 60x60x36):")
     log = STREAMS["small_loop"]()

@@ -35,14 +35,14 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import tempfile
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from harness.recorder import Recorder  # noqa: E402
+from harness.recorder import Recorder
 
 
 class SyntheticRatSLAM:
@@ -59,8 +59,10 @@ class SyntheticRatSLAM:
         self._links = np.concatenate([chain, extra])[np.argsort(np.r_[chain[:, 1], extra[:, 1]], kind="stable")]
         nx, ny, nt = grid
         x, y, t = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nt), indexing="ij")
-        self._blobs = [np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / 4.0 - (t - ct) ** 2 / 2.0)
-                       for cx, cy, ct in rng.uniform(0, nx, (8, 3))]
+        self._blobs = [
+            np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / 4.0 - (t - ct) ** 2 / 2.0)
+            for cx, cy, ct in rng.uniform(0, nx, (8, 3))
+        ]
         self._rng = rng
         self.peak = np.array([nx / 2, ny / 2, 0.0])
         self.snapped = False
@@ -174,10 +176,18 @@ def real(duration: float, out: Path) -> dict:
     rec.close()
     spent[0] += time.perf_counter() - t1
     wall = time.perf_counter() - t0
-    return {"ticks": len(log), "wall_s": wall, "recorder_s": spent[0], "share": spent[0] / wall,
-            "overhead_vs_run_without": spent[0] / (wall - spent[0]), "mb": out.stat().st_size / 1e6,
-            "experiences": len(res.ratslam.experience_poses), "links": len(res.ratslam.links),
-            "keyframes": len(res.gtsam.keyframe_poses), "slam_wall": res.wall}
+    return {
+        "ticks": len(log),
+        "wall_s": wall,
+        "recorder_s": spent[0],
+        "share": spent[0] / wall,
+        "overhead_vs_run_without": spent[0] / (wall - spent[0]),
+        "mb": out.stat().st_size / 1e6,
+        "experiences": len(res.ratslam.experience_poses),
+        "links": len(res.ratslam.links),
+        "keyframes": len(res.gtsam.keyframe_poses),
+        "slam_wall": res.wall,
+    }
 
 
 def main() -> None:
@@ -193,15 +203,19 @@ def main() -> None:
         print(f"synthetic: {args.ticks} ticks, 60x60x36 grid, 5,000 experiences, 6,000 keyframes")
         for m in periods:
             r = synthetic(args.ticks, m, args.every_activity, Path(tmp) / f"syn{m}.rrd")
-            print(f"  every_map={m:4d} every_activity={args.every_activity}: {r['mb']:7.1f} MB, "
-                  f"recorder {r['seconds']:6.1f} s = {r['us_per_tick']:6.1f} us/tick")
+            print(
+                f"  every_map={m:4d} every_activity={args.every_activity}: {r['mb']:7.1f} MB, "
+                f"recorder {r['seconds']:6.1f} s = {r['us_per_tick']:6.1f} us/tick"
+            )
         if args.real:
             r = real(args.real, Path(tmp) / "real.rrd")
-            print(f"real office_floor {args.real:.0f} s ({r['ticks']} ticks, {r['experiences']} experiences, "
-                  f"{r['links']} links, {r['keyframes']} keyframes): run {r['wall_s']:.1f} s, recorder "
-                  f"{r['recorder_s']:.1f} s = {100 * r['share']:.1f}% of the run "
-                  f"({100 * r['overhead_vs_run_without']:.1f}% on top of the systems), {r['mb']:.1f} MB; "
-                  f"systems {r['slam_wall']}")
+            print(
+                f"real office_floor {args.real:.0f} s ({r['ticks']} ticks, {r['experiences']} experiences, "
+                f"{r['links']} links, {r['keyframes']} keyframes): run {r['wall_s']:.1f} s, recorder "
+                f"{r['recorder_s']:.1f} s = {100 * r['share']:.1f}% of the run "
+                f"({100 * r['overhead_vs_run_without']:.1f}% on top of the systems), {r['mb']:.1f} MB; "
+                f"systems {r['slam_wall']}"
+            )
 
 
 if __name__ == "__main__":

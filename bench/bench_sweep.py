@@ -1,10 +1,11 @@
 """Benchmark of sweep throughput (not a test): runs per hour with 1 and 2 local workers and on a
 Dask LocalCluster of 2 worker processes, for the same small sweep.
 
-The sweep: small_loop, 900 s per run (runs long enough that worker start-up is small beside them), false-positive rate x 4 values and odometric bias x 4
-values, 2 seeds (16 runs on the curves, 14 distinct), RatSLAM and three pose-graph
-configurations on every stream. Each executor starts from an empty directory; worker start-up is
-counted. Scaling target: >= 1.8x at 2 workers. Results must agree (runs.csv without wall times).
+The sweep: small_loop, 900 s per run (runs long enough that worker start-up is small beside
+them), false-positive rate x 4 values and odometric bias x 4 values, 2 seeds (16 runs on the
+curves, 14 distinct), RatSLAM and three pose-graph configurations on every stream. Each executor
+starts from an empty directory; worker start-up is counted. Scaling target: >= 1.8x at 2
+workers. Results must agree (runs.csv without wall times).
 
 Usage: python bench/bench_sweep.py [--duration S]
 """

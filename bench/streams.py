@@ -17,7 +17,7 @@ benchmarks). All are deterministic (fixed seeds).
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable
+from collections.abc import Callable
 
 from worlds import ObservationLog, load_world, simulate
 from worlds.real_data import load_plaza
@@ -25,15 +25,19 @@ from worlds.real_data import load_plaza
 
 def _small_loop_hard() -> ObservationLog:
     w = load_world("small_loop")
-    w = dataclasses.replace(w, scenes=dataclasses.replace(w.scenes, alias_rate=0.1, false_positive_rate=0.01),
-                            odometry=dataclasses.replace(w.odometry, bias_deg_s=1.5))
+    w = dataclasses.replace(
+        w,
+        scenes=dataclasses.replace(w.scenes, alias_rate=0.1, false_positive_rate=0.01),
+        odometry=dataclasses.replace(w.odometry, bias_deg_s=1.5),
+    )
     return simulate(w, duration=900.0, seed=1)
 
 
 def _full_floor_fast() -> ObservationLog:
     w = load_world("full_floor")
-    w = dataclasses.replace(w, tick_rate=10.0, robot=dataclasses.replace(w.robot, speed=2.0, max_turn_rate_deg=180.0,
-                                                                         arrive_radius=0.6))
+    w = dataclasses.replace(
+        w, tick_rate=10.0, robot=dataclasses.replace(w.robot, speed=2.0, max_turn_rate_deg=180.0, arrive_radius=0.6)
+    )
     return simulate(w, duration=600.0, seed=0)
 
 

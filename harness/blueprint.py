@@ -17,8 +17,11 @@ TRAIL_ENTITIES = ("/world/ground_truth", "/world/odometry", "/world/false_positi
 
 
 def _trail() -> rrb.VisibleTimeRanges:
-    return rrb.VisibleTimeRanges(rrb.VisibleTimeRange(
-        "tick", start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative()))
+    return rrb.VisibleTimeRanges(
+        rrb.VisibleTimeRange(
+            "tick", start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative()
+        )
+    )
 
 
 def default_blueprint(grid_shape, world_bounds=None) -> rrb.Blueprint:
@@ -37,25 +40,30 @@ def default_blueprint(grid_shape, world_bounds=None) -> rrb.Blueprint:
         world_kw["visual_bounds"] = rrb.VisualBounds2D(x_range=[x0 - mx, x1 + mx], y_range=[-y1 - my, -y0 + my])
     world = rrb.Spatial2DView(
         name="World: ground truth (white), odometry (orange), experience map (blue), GTSAM (magenta), "
-             "false positives (red)",
-        origin="/", contents=["+ /world/**"],
+        "false positives (red)",
+        origin="/",
+        contents=["+ /world/**"],
         overrides={p: _trail() for p in TRAIL_ENTITIES if p.startswith("/world")},
         **world_kw,
     )
     pose_cells = rrb.Spatial2DView(
         name="Pose cells: x'y' activity, peak trail (cyan), snaps (red)",
-        origin="/", contents=["+ /pose_cells/**"],
+        origin="/",
+        contents=["+ /pose_cells/**"],
         overrides={"/pose_cells/peak": _trail()},
         visual_bounds=rrb.VisualBounds2D(x_range=[-0.5, nx + 0.5], y_range=[-ny - 0.5, 0.5]),
     )
-    whole_run = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
-                                                      end=rrb.TimeRangeBoundary.infinite()))
+    whole_run = rrb.TimeAxis(
+        view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+    )
     errors = rrb.TimeSeriesView(name="ATE so far (m)", origin="/metrics/ate", axis_x=whole_run)
-    counts = rrb.TimeSeriesView(name="Counts", origin="/metrics", contents=["+ /metrics/**", "- /metrics/ate/**"],
-                                axis_x=whole_run)
+    counts = rrb.TimeSeriesView(
+        name="Counts", origin="/metrics", contents=["+ /metrics/**", "- /metrics/ate/**"], axis_x=whole_run
+    )
     return rrb.Blueprint(
-        rrb.Horizontal(world, rrb.Vertical(pose_cells, rrb.Horizontal(errors, counts), row_shares=[3, 2]),
-                       column_shares=[3, 2]),
+        rrb.Horizontal(
+            world, rrb.Vertical(pose_cells, rrb.Horizontal(errors, counts), row_shares=[3, 2]), column_shares=[3, 2]
+        ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="tick", play_state="following"),

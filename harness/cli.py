@@ -39,14 +39,19 @@ def _cmd_simulate(args) -> None:
     _check_writable(out)
     png = Path(args.png) if args.png else out.with_suffix(".png")
     duration = world.duration if args.duration is None else args.duration
-    progress = Progress(int(round(duration * world.tick_rate)), f"simulate {world.name}", world.dt,
-                        enabled=not args.quiet)
-    log = simulate(world, duration=duration, seed=args.seed, bias_deg_s=args.bias, fp_rate=args.fp,
-                   progress=progress)
+    progress = Progress(
+        int(round(duration * world.tick_rate)), f"simulate {world.name}", world.dt, enabled=not args.quiet
+    )
+    log = simulate(world, duration=duration, seed=args.seed, bias_deg_s=args.bias, fp_rate=args.fp, progress=progress)
     log.write_csv(out)
     fps = log.ground_truth()[log.false_positive, :2]
-    plot_run(world, log.ground_truth()[:, :2], png,
-             title=f"{world.name}: {len(log)} ticks, seed {args.seed}", false_positive_xy=fps)
+    plot_run(
+        world,
+        log.ground_truth()[:, :2],
+        png,
+        title=f"{world.name}: {len(log)} ticks, seed {args.seed}",
+        false_positive_xy=fps,
+    )
     print(f"wrote {out} ({len(log)} ticks, {log.t[-1]:.0f} s simulated) and {png}")
 
 
@@ -58,9 +63,16 @@ def _cmd_run(args) -> None:
 
     get_figure(args.figure)  # unknown names fail before anything starts
     config = read_config_file(args.config) if args.config else None
-    out = run_figure(args.figure, out=args.out, seed=args.seed, duration=args.duration,
-                     show_progress=not args.quiet, recorder_factory=None if args.no_recording else recorder_factory,
-                     workers=args.workers, config=config)
+    out = run_figure(
+        args.figure,
+        out=args.out,
+        seed=args.seed,
+        duration=args.duration,
+        show_progress=not args.quiet,
+        recorder_factory=None if args.no_recording else recorder_factory,
+        workers=args.workers,
+        config=config,
+    )
     _print_run_summary(out)
 
 
@@ -70,8 +82,13 @@ def _cmd_replay(args) -> None:
     from .recorder import recorder_factory
 
     config = read_config_file(args.config) if args.config else None
-    out = replay(args.log, args.out, show_progress=not args.quiet,
-                 recorder_factory=None if args.no_recording else recorder_factory, config=config)
+    out = replay(
+        args.log,
+        args.out,
+        show_progress=not args.quiet,
+        recorder_factory=None if args.no_recording else recorder_factory,
+        config=config,
+    )
     _print_run_summary(out)
 
 
@@ -83,9 +100,11 @@ def _cmd_import_plaza(args) -> None:
     log = load_plaza(args.name, seed=args.seed, fp_rate=args.fp, duration=args.duration)
     log.write_csv(out)
     speed = float(np.median(np.abs(log.v_trans)))
-    print(f"wrote {out} ({len(log)} ticks, {log.t[-1] - log.t[0] + log.dt[0]:.0f} s, median speed "
-          f"{speed:.2f} m/s at {1.0 / float(np.median(log.dt)):.0f} Hz; scene numbers synthesised from "
-          f"the ground truth)")
+    print(
+        f"wrote {out} ({len(log)} ticks, {log.t[-1] - log.t[0] + log.dt[0]:.0f} s, median speed "
+        f"{speed:.2f} m/s at {1.0 / float(np.median(log.dt)):.0f} Hz; scene numbers synthesised from "
+        f"the ground truth)"
+    )
 
 
 def _cmd_import_tum(args) -> None:
@@ -94,17 +113,23 @@ def _cmd_import_tum(args) -> None:
 
     out = Path(args.out)
     _check_writable(out)
-    log = import_tum(args.odometry, ground_truth=args.gt, labels=args.labels,
-                     synthesise=PLAZA_SCENES if args.synthesise else None, label_max_age=args.label_max_age,
-                     seed=args.seed)
+    log = import_tum(
+        args.odometry,
+        ground_truth=args.gt,
+        labels=args.labels,
+        synthesise=PLAZA_SCENES if args.synthesise else None,
+        label_max_age=args.label_max_age,
+        seed=args.seed,
+    )
     _write_imported(log, out)
 
 
 def _write_imported(log, out: Path) -> None:
     log.write_csv(out)
     seen = int((log.scene_id >= 0).sum())
-    print(f"wrote {out} ({len(log)} ticks, {seen} with a scene number"
-          f"{', ground truth' if log.has_ground_truth else ''})")
+    print(
+        f"wrote {out} ({len(log)} ticks, {seen} with a scene number{', ground truth' if log.has_ground_truth else ''})"
+    )
 
 
 def _cmd_import_rosbag(args) -> None:
@@ -113,9 +138,16 @@ def _cmd_import_rosbag(args) -> None:
 
     out = Path(args.out)
     _check_writable(out)
-    log = import_bag(args.bag, args.odom, ground_truth_topic=args.gt, label_topic=args.labels,
-                     synthesise=PLAZA_SCENES if args.synthesise else None, twist=args.twist,
-                     label_max_age=args.label_max_age, seed=args.seed)
+    log = import_bag(
+        args.bag,
+        args.odom,
+        ground_truth_topic=args.gt,
+        label_topic=args.labels,
+        synthesise=PLAZA_SCENES if args.synthesise else None,
+        twist=args.twist,
+        label_max_age=args.label_max_age,
+        seed=args.seed,
+    )
     _write_imported(log, out)
 
 
@@ -137,13 +169,18 @@ def _cmd_sweep(args) -> None:
     spec = read_sweep_spec(args.spec)
     n = len(spec.runs())
     if n > spec.max_runs and not args.yes:
-        raise CliError(f"{args.spec}: max_runs: the spec expands to {n} runs, more than {spec.max_runs}; "
-                       "pass --yes to run them all")
+        raise CliError(
+            f"{args.spec}: max_runs: the spec expands to {n} runs, more than {spec.max_runs}; "
+            "pass --yes to run them all"
+        )
     try:
         out = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler)
     except KeyboardInterrupt:
-        print(f"ratslam-harness: interrupted; the completed runs are kept in {Path(args.out) / 'runs'}: "
-              "rerun the same command to finish the sweep", file=sys.stderr)
+        print(
+            f"ratslam-harness: interrupted; the completed runs are kept in {Path(args.out) / 'runs'}: "
+            "rerun the same command to finish the sweep",
+            file=sys.stderr,
+        )
         raise SystemExit(130) from None
     print(f"sweep directory: {out}\n  runs:   {out / 'runs.csv'}\n  report: {out / 'report.md'}")
 
@@ -221,16 +258,21 @@ def _label_options(parser, labels_help: str) -> None:
     """Place labels given (``--labels``) or synthesised from the ground truth, and their options."""
     group = parser.add_mutually_exclusive_group(required=True)
     group.add_argument("--labels", help=labels_help)
-    group.add_argument("--synthesise", action="store_true",
-                       help="scene numbers from the ground truth by the scene model (2 m cells, 4 sectors)")
-    parser.add_argument("--label-max-age", type=_positive,
-                        help="a label holds for this long, s (default: two median tick lengths)")
+    group.add_argument(
+        "--synthesise",
+        action="store_true",
+        help="scene numbers from the ground truth by the scene model (2 m cells, 4 sectors)",
+    )
+    parser.add_argument(
+        "--label-max-age", type=_positive, help="a label holds for this long, s (default: two median tick lengths)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _OneLineParser(prog="ratslam-harness",
-                       description="RatSLAM experience mapping beside a GTSAM pose graph, on simulated worlds.")
+    p = _OneLineParser(
+        prog="ratslam-harness", description="RatSLAM experience mapping beside a GTSAM pose graph, on simulated worlds."
+    )
     sub = p.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
 
     sub.add_parser("list", help="list shipped worlds").set_defaults(func=_cmd_list)
@@ -251,27 +293,39 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="run directory (default: reports/FIGURE)")
     r.add_argument("--seed", type=int, help="random seed (default: the figure's)")
     r.add_argument("--duration", type=_positive, help="simulated seconds (default: the figure's)")
-    r.add_argument("--config", help="TOML file with [ratslam] and [gtsam] tables of config fields, "
-                   "applied on top of each variant's configuration")
+    r.add_argument(
+        "--config",
+        help="TOML file with [ratslam] and [gtsam] tables of config fields, "
+        "applied on top of each variant's configuration",
+    )
     r.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
-    r.add_argument("--workers", type=_workers, help="processes for the figure's variants "
-                   "(default: one per variant, at most one per core; 1 = sequential, same output)")
+    r.add_argument(
+        "--workers",
+        type=_workers,
+        help="processes for the figure's variants "
+        "(default: one per variant, at most one per core; 1 = sequential, same output)",
+    )
     r.add_argument("--quiet", action="store_true", help="no progress output")
     r.set_defaults(func=_cmd_run)
 
     rp = sub.add_parser("replay", help="replay an observation log (CSV) through both systems")
     rp.add_argument("log", help="observation log: t,dt,v_trans,v_rot,scene_id[,gt_x,gt_y,gt_theta,false_positive]")
     rp.add_argument("--out", required=True, help="run directory to write")
-    rp.add_argument("--config", help="TOML file with [ratslam] and [gtsam] tables of config fields "
-                    "(a run's own config.toml reproduces it)")
+    rp.add_argument(
+        "--config",
+        help="TOML file with [ratslam] and [gtsam] tables of config fields (a run's own config.toml reproduces it)",
+    )
     rp.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     rp.add_argument("--quiet", action="store_true", help="no progress output")
     rp.set_defaults(func=_cmd_replay)
 
     imp = sub.add_parser("import", help="write an observation log (CSV) from recorded robot data")
     isub = imp.add_subparsers(dest="source", required=True, parser_class=_OneLineParser)
-    pz = isub.add_parser("plaza", help="a CMU Plaza data set shipped with gtsam: real wheel odometry, "
-                                       "scene numbers synthesised from its ground truth")
+    pz = isub.add_parser(
+        "plaza",
+        help="a CMU Plaza data set shipped with gtsam: real wheel odometry, "
+        "scene numbers synthesised from its ground truth",
+    )
     pz.add_argument("name", choices=("plaza1", "plaza2"), help="data set")
     pz.add_argument("--out", required=True, help="observation log to write (CSV)")
     pz.add_argument("--seed", type=int, default=0, help="seed of flicker and false positives (default 0)")
@@ -279,16 +333,22 @@ def build_parser() -> argparse.ArgumentParser:
     pz.add_argument("--duration", type=_positive, help="keep only the first S seconds")
     pz.set_defaults(func=_cmd_import_plaza)
 
-    tm = isub.add_parser("tum", help="TUM trajectories (t x y z qx qy qz qw): odometry, optional ground "
-                                     "truth, and place labels (t,scene_id CSV) or synthesised scene numbers")
+    tm = isub.add_parser(
+        "tum",
+        help="TUM trajectories (t x y z qx qy qz qw): odometry, optional ground "
+        "truth, and place labels (t,scene_id CSV) or synthesised scene numbers",
+    )
     tm.add_argument("odometry", help="odometry trajectory (TUM)")
     tm.add_argument("--out", required=True, help="observation log to write (CSV)")
     tm.add_argument("--gt", help="ground-truth trajectory (TUM), interpolated at the odometry's times")
     _label_options(tm, "place labels: CSV with header t,scene_id, in time order")
     tm.set_defaults(func=_cmd_import_tum)
 
-    rb = isub.add_parser("rosbag", help="a ROS 1 or ROS 2 bag: nav_msgs/Odometry, optional ground truth, and "
-                                        "an integer place-label topic or synthesised scene numbers")
+    rb = isub.add_parser(
+        "rosbag",
+        help="a ROS 1 or ROS 2 bag: nav_msgs/Odometry, optional ground truth, and "
+        "an integer place-label topic or synthesised scene numbers",
+    )
     rb.add_argument("bag", help="bag file (ROS 1) or bag directory (ROS 2)")
     rb.add_argument("--odom", required=True, help="odometry topic (nav_msgs/Odometry)")
     rb.add_argument("--out", required=True, help="observation log to write (CSV)")
@@ -297,8 +357,11 @@ def build_parser() -> argparse.ArgumentParser:
     _label_options(rb, "place-label topic (std_msgs integer, field data)")
     rb.set_defaults(func=_cmd_import_rosbag)
 
-    sw = sub.add_parser("sweep", help="a robustness study: conditions x seeds x system configurations "
-                                      "(resumable: rerun the same command to finish a killed sweep)")
+    sw = sub.add_parser(
+        "sweep",
+        help="a robustness study: conditions x seeds x system configurations "
+        "(resumable: rerun the same command to finish a killed sweep)",
+    )
     sw.add_argument("spec", help="sweep spec (TOML; see sweeps/ for examples)")
     sw.add_argument("--out", required=True, help="sweep directory (runs/, runs.csv, report.md)")
     sw.add_argument("--workers", type=_workers, help="local worker processes (default: one per core)")

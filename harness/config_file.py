@@ -64,9 +64,10 @@ def _field_types(cls) -> dict[str, tuple[type, bool]]:
 
 def _typed(path, table: str, key: str, value, kind: type):
     """The TOML value as the field's type, or a one-line error."""
+
     def fail(expected):
-        raise ConfigFileError(f"{path}: [{table}] {key}: expected {expected}, got {value!r} "
-                              f"({type(value).__name__})")
+        raise ConfigFileError(f"{path}: [{table}] {key}: expected {expected}, got {value!r} ({type(value).__name__})")
+
     if kind is bool:
         if not isinstance(value, bool):
             fail("true or false")
@@ -109,12 +110,11 @@ def read_config_file(path) -> ConfigOverrides:
         out = {}
         for key, value in values.items():
             if key not in types_:
-                raise ConfigFileError(f"{path}: [{table}] {key}: unknown key (not a field of "
-                                      f"{TABLES[table].__name__})")
+                raise ConfigFileError(f"{path}: [{table}] {key}: unknown key (not a field of {TABLES[table].__name__})")
             out[key] = _typed(path, table, key, value, types_[key][0])
         tables[table] = out
     overrides = ConfigOverrides(ratslam=tables.get("ratslam", {}), gtsam=tables.get("gtsam", {}), source=str(path))
-    overrides.apply(RatSLAMConfig(), PoseGraphConfig())      # values checked now, before any work
+    overrides.apply(RatSLAMConfig(), PoseGraphConfig())  # values checked now, before any work
     return overrides
 
 

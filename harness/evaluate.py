@@ -51,8 +51,9 @@ def summarize_stream(res: StreamResult, log: ObservationLog) -> dict:
     }
 
 
-def evaluate_stream(res: StreamResult, log: ObservationLog, gtsam: bool = True,
-                    closure_true_distance: float = CLOSURE_TRUE_DISTANCE) -> dict:
+def evaluate_stream(
+    res: StreamResult, log: ObservationLog, gtsam: bool = True, closure_true_distance: float = CLOSURE_TRUE_DISTANCE
+) -> dict:
     """Every metric of one variant's run (a JSON-ready dictionary); accuracy needs ground truth.
     A loop closure counts as true if its keyframes were within ``closure_true_distance`` metres
     in truth (default: for the simulator's 1 m scene cells)."""
@@ -117,8 +118,14 @@ def _closure_quality(pg, gt: np.ndarray, true_distance: float) -> dict:
     is_true = np.hypot(*(a - b).T) <= true_distance
     accepted = np.asarray(pg.closure_accepted, dtype=bool)
     precision, recall = metrics.loop_closure_pr(accepted, is_true)
-    return {"proposed": int(len(pairs)), "accepted": int(accepted.sum()), "true": int(is_true.sum()),
-            "precision": precision, "recall": recall, "true_distance_m": true_distance}
+    return {
+        "proposed": int(len(pairs)),
+        "accepted": int(accepted.sum()),
+        "true": int(is_true.sum()),
+        "precision": precision,
+        "recall": recall,
+        "true_distance_m": true_distance,
+    }
 
 
 def _timing(res: StreamResult, log: ObservationLog) -> dict:
@@ -131,8 +138,9 @@ def _timing(res: StreamResult, log: ObservationLog) -> dict:
     return out
 
 
-def room_laps(res: StreamResult, log: ObservationLog, room: tuple[float, float, float, float],
-              cell_size: float, grid_shape) -> dict:
+def room_laps(
+    res: StreamResult, log: ObservationLog, room: tuple[float, float, float, float], cell_size: float, grid_shape
+) -> dict:
     """Fig 11: where the first two laps of a room sit in the pose cells and in the experience map.
 
     Returns the distances between the two laps' centres, in the pose cells (wrap-aware, metres)
@@ -144,8 +152,11 @@ def room_laps(res: StreamResult, log: ObservationLog, room: tuple[float, float, 
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     visits = [(a, b) for a, b in zip(starts, ends) if b - a > 20][:2]
     if len(visits) < 2:
-        return {"laps_found": len(visits), "pose_cell_separation_m": float("nan"),
-                "experience_map_separation_m": float("nan")}
+        return {
+            "laps_found": len(visits),
+            "pose_cell_separation_m": float("nan"),
+            "experience_map_separation_m": float("nan"),
+        }
     n = np.array(grid_shape[:2], dtype=float)
 
     def circular_centre(cells):
@@ -156,6 +167,9 @@ def room_laps(res: StreamResult, log: ObservationLog, room: tuple[float, float, 
     dc = circular_centre(res.peak_cells[a0:a1]) - circular_centre(res.peak_cells[b0:b1])
     dc = (dc + n / 2) % n - n / 2
     de = res.ratslam_pose[a0:a1, :2].mean(0) - res.ratslam_pose[b0:b1, :2].mean(0)
-    return {"laps_found": 2, "lap_ticks": [[int(a0), int(a1)], [int(b0), int(b1)]],
-            "pose_cell_separation_m": float(np.hypot(*dc) * cell_size),
-            "experience_map_separation_m": float(np.hypot(*de))}
+    return {
+        "laps_found": 2,
+        "lap_ticks": [[int(a0), int(a1)], [int(b0), int(b1)]],
+        "pose_cell_separation_m": float(np.hypot(*dc) * cell_size),
+        "experience_map_separation_m": float(np.hypot(*de)),
+    }

@@ -60,10 +60,16 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
     if len(pg.keyframe_ticks):
         M.write_tum(traj / "gtsam_keyframes.tum", t[pg.keyframe_ticks], *pg.keyframe_poses.T)
     maps = {
-        "grid_shape": np.array(rs.config.shape), "peak_cells": res.peak_cells, "snapped": res.snapped,
-        "experience_poses": rs.experience_poses, "experience_cells": rs.experience_cells,
-        "experience_last_tick": rs.experience_last_tick, "experience_first_tick": rs.experience_first_tick,
-        "links": rs.links, "keyframe_poses": pg.keyframe_poses, "keyframe_ticks": pg.keyframe_ticks,
+        "grid_shape": np.array(rs.config.shape),
+        "peak_cells": res.peak_cells,
+        "snapped": res.snapped,
+        "experience_poses": rs.experience_poses,
+        "experience_cells": rs.experience_cells,
+        "experience_last_tick": rs.experience_last_tick,
+        "experience_first_tick": rs.experience_first_tick,
+        "links": rs.links,
+        "keyframe_poses": pg.keyframe_poses,
+        "keyframe_ticks": pg.keyframe_ticks,
         "loop_closures": np.asarray(pg.loop_closures).reshape(-1, 2),
         "closure_accepted": np.asarray(pg.closure_accepted, dtype=bool),
     }
@@ -100,8 +106,9 @@ def _scene_cell_size(fig: Figure, world: World | None) -> float:
     return PLAZA_SCENES.cell_size
 
 
-def _variant_log(fig: Figure, variant: Variant, world: World | None, duration: float | None,
-                 seed: int) -> ObservationLog:
+def _variant_log(
+    fig: Figure, variant: Variant, world: World | None, duration: float | None, seed: int
+) -> ObservationLog:
     """The observation stream of a variant: simulated in its world, or the figure's real data set
     (scene numbers synthesised from its ground truth with ``seed``)."""
     if fig.real_log is not None:
@@ -117,18 +124,31 @@ def _pool_context():
     return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
 
 
-def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, duration: float, seed: int,
-                 show_progress: bool, recorder_factory=None, config: ConfigOverrides | None = None,
-                 redraw: bool | None = None) -> dict:
+def _run_variant(
+    run_dir: Path,
+    fig: Figure,
+    variant: Variant,
+    world: World,
+    duration: float,
+    seed: int,
+    show_progress: bool,
+    recorder_factory=None,
+    config: ConfigOverrides | None = None,
+    redraw: bool | None = None,
+) -> dict:
     world = _variant_world(world, variant)
     log = _variant_log(fig, variant, world, duration, seed)
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
-    write_config_toml(run_dir / "config.toml", rs_cfg, pg_cfg,
-                      f"Effective configuration of {fig.name}, variant {variant.name} (seed {seed}).\n"
-                      + (f"{derivation}\n" if derivation else "")
-                      + "Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml")
+    write_config_toml(
+        run_dir / "config.toml",
+        rs_cfg,
+        pg_cfg,
+        f"Effective configuration of {fig.name}, variant {variant.name} (seed {seed}).\n"
+        + (f"{derivation}\n" if derivation else "")
+        + "Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml",
+    )
     progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress, redraw=redraw)
     recorder = recorder_factory(run_dir, world, log, rs_cfg) if recorder_factory else None
     res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
@@ -136,8 +156,12 @@ def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, dur
         recorder.close()
     write_stream_outputs(run_dir, log, res)
     m = evaluate_stream(res, log, closure_true_distance=1.5 * _scene_cell_size(fig, world))
-    m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg),
-                   "odometric_bias_deg_s": variant.odometric_bias, "pi_bias_deg_s": variant.pi_bias}
+    m["config"] = {
+        "ratslam": dataclasses.asdict(rs_cfg),
+        "gtsam": dataclasses.asdict(pg_cfg),
+        "odometric_bias_deg_s": variant.odometric_bias,
+        "pi_bias_deg_s": variant.pi_bias,
+    }
     if derivation:
         m["derived_scale"] = derivation
     if fig.world == "full_floor":
@@ -150,8 +174,18 @@ def _run_variant(run_dir: Path, fig: Figure, variant: Variant, world: World, dur
 def _variant_job(args) -> dict:
     """One variant in a worker process (progress as plain lines: several bars would clash)."""
     run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config = args
-    return _run_variant(run_dir, get_figure(fig_name), variant, world, duration, seed, show_progress,
-                        recorder_factory, config, redraw=False)
+    return _run_variant(
+        run_dir,
+        get_figure(fig_name),
+        variant,
+        world,
+        duration,
+        seed,
+        show_progress,
+        recorder_factory,
+        config,
+        redraw=False,
+    )
 
 
 def default_workers(n_jobs: int) -> int:
@@ -160,9 +194,17 @@ def default_workers(n_jobs: int) -> int:
     return max(1, min(n_jobs, cores))
 
 
-def run_figure(name: str, out=None, seed: int | None = None, duration: float | None = None,
-               show_progress: bool = True, recorder_factory=None, variants: tuple[str, ...] | None = None,
-               workers: int | None = None, config: ConfigOverrides | None = None) -> Path:
+def run_figure(
+    name: str,
+    out=None,
+    seed: int | None = None,
+    duration: float | None = None,
+    show_progress: bool = True,
+    recorder_factory=None,
+    variants: tuple[str, ...] | None = None,
+    workers: int | None = None,
+    config: ConfigOverrides | None = None,
+) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
     always runs) into ``out`` (default ``reports/<name>``). ``config`` (from a configuration
     file) is applied on top of each variant's own configuration.
@@ -175,8 +217,9 @@ def run_figure(name: str, out=None, seed: int | None = None, duration: float | N
         unknown = set(variants) - {v.name for v in fig.variants}
         if unknown:
             raise ValueError(f"{name}: unknown variant(s) {sorted(unknown)} (known: {[v.name for v in fig.variants]})")
-        fig = dataclasses.replace(fig, variants=tuple(v for i, v in enumerate(fig.variants)
-                                                      if i == 0 or v.name in variants))
+        fig = dataclasses.replace(
+            fig, variants=tuple(v for i, v in enumerate(fig.variants) if i == 0 or v.name in variants)
+        )
     world = load_world(fig.world) if fig.world is not None else None
     seed = fig.seed if seed is None else int(seed)
     duration = fig.duration if duration is None else float(duration)
@@ -196,12 +239,16 @@ def run_figure(name: str, out=None, seed: int | None = None, duration: float | N
             results = [_run_variant(job[0], fig, *job[2:]) for job in jobs]
         variants = {v.name: m for v, m in zip(fig.variants, results)}
         primary = variants[fig.primary.name]
-        source = ({"world": {"name": world.name, "file": world.path, "lap_length_m": primary["_lap_length"]}}
-                  if world is not None else {"real_log": fig.real_log})
+        source = (
+            {"world": {"name": world.name, "file": world.path, "lap_length_m": primary["_lap_length"]}}
+            if world is not None
+            else {"real_log": fig.real_log}
+        )
         metrics = {
             "figure": {"name": fig.name, "title": fig.title, "notes": fig.notes},
             **source,
-            "duration_s": primary["_duration"] if duration is None else duration, "seed": seed,
+            "duration_s": primary["_duration"] if duration is None else duration,
+            "seed": seed,
             "fp_rate": fig.fp_rate,
             "variant_labels": {v.name: v.label for v in fig.variants},
             "variants": variants,
@@ -229,9 +276,15 @@ def evaluate_claims(fig: Figure, metrics: dict) -> list[dict]:
     return out
 
 
-def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
-           ratslam_config: RatSLAMConfig | None = None, gtsam_config: PoseGraphConfig | None = None,
-           config: ConfigOverrides | None = None) -> Path:
+def replay(
+    log_path,
+    out,
+    show_progress: bool = True,
+    recorder_factory=None,
+    ratslam_config: RatSLAMConfig | None = None,
+    gtsam_config: PoseGraphConfig | None = None,
+    config: ConfigOverrides | None = None,
+) -> Path:
     """Replay a user's observation log through both systems into run directory ``out``
     (``config``, from a configuration file, on top of the given configurations or, where none is
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
@@ -247,12 +300,15 @@ def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     out = Path(out)
     with staged_directory(out) as stage:
-        write_config_toml(stage / "config.toml", rs_cfg, pg_cfg,
-                          f"Effective configuration of the replay of {Path(log_path).name}.\n"
-                          f"{derivation}\n"
-                          f"Reproduce: ratslam-harness replay {Path(log_path).name} --config config.toml")
-        progress = Progress(len(log), f"replay {Path(log_path).name}", float(np.median(log.dt)),
-                            enabled=show_progress)
+        write_config_toml(
+            stage / "config.toml",
+            rs_cfg,
+            pg_cfg,
+            f"Effective configuration of the replay of {Path(log_path).name}.\n"
+            f"{derivation}\n"
+            f"Reproduce: ratslam-harness replay {Path(log_path).name} --config config.toml",
+        )
+        progress = Progress(len(log), f"replay {Path(log_path).name}", float(np.median(log.dt)), enabled=show_progress)
         recorder = recorder_factory(stage, None, log, rs_cfg) if recorder_factory else None
         res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
         if recorder:
@@ -261,9 +317,14 @@ def replay(log_path, out, show_progress: bool = True, recorder_factory=None,
         m = evaluate_stream(res, log)
         m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg)}
         m["derived_scale"] = derivation
-        metrics = {"figure": None, "title": f"replay of {Path(log_path).name}", "log": str(log_path),
-                   "duration_s": log.duration, "variants": {"replay": m},
-                   "provenance": provenance(log=str(log_path))}
+        metrics = {
+            "figure": None,
+            "title": f"replay of {Path(log_path).name}",
+            "log": str(log_path),
+            "duration_s": log.duration,
+            "variants": {"replay": m},
+            "provenance": provenance(log=str(log_path)),
+        }
         write_json(stage / "metrics.json", metrics)
         write_report(stage)
     return out

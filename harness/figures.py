@@ -9,8 +9,8 @@ run's metrics; the report tabulates them (statement, measured value, held or not
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
+from dataclasses import dataclass
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,7 @@ class Figure:
 
 # --- claim helpers ---------------------------------------------------------------------------
 
+
 def _v(m, variant):
     return m["variants"][variant]
 
@@ -72,6 +73,7 @@ def ate_at_most(variant: str, system: str, bound: float, statement: str, key: st
     def check(m):
         value = _v(m, variant)["ate"][system]
         return f"{system} ATE {value:.3f} m (bound {bound} m)", value <= bound
+
     return Claim(key, statement, check)
 
 
@@ -79,8 +81,11 @@ def ratio_at_least(variant: str, worse: str, better: str, factor: float, stateme
     def check(m):
         ate = _v(m, variant)["ate"]
         ratio = ate[worse] / max(ate[better], 1e-9)
-        return f"{worse} {ate[worse]:.2f} m / {better} {ate[better]:.3f} m = {ratio:.1f}x (need {factor}x)", \
-            ratio >= factor
+        return (
+            f"{worse} {ate[worse]:.2f} m / {better} {ate[better]:.3f} m = {ratio:.1f}x (need {factor}x)",
+            ratio >= factor,
+        )
+
     return Claim(key, statement, check)
 
 
@@ -88,40 +93,74 @@ def count_at_least(variant: str, metric: str, minimum: int, statement: str, key:
     def check(m):
         value = _v(m, variant)[metric]
         return f"{metric.replace('_', ' ')} = {value} (need >= {minimum})", value >= minimum
+
     return Claim(key, statement, check)
 
 
 def _bias_claims(bias: float) -> tuple[Claim, ...]:
     """Figs 8-10, with the paper's reading and the physical one reported side by side."""
     claims = [
-        ate_at_most("paper", "experience_map", 0.3,
-                    f"(b) With {bias} deg/s path-integration bias the experience map stays consistent "
-                    "(SE(2)-aligned ATE <= 0.3 m).", "experience_map_consistent"),
-        ratio_at_least("paper", "pose_cell_path", "experience_map", 5.0,
-                       "(a) The pose-cell map is bent: its peak path in metres is >= 5x worse than the "
-                       "experience map.", "pose_cells_bent"),
+        ate_at_most(
+            "paper",
+            "experience_map",
+            0.3,
+            f"(b) With {bias} deg/s path-integration bias the experience map stays consistent "
+            "(SE(2)-aligned ATE <= 0.3 m).",
+            "experience_map_consistent",
+        ),
+        ratio_at_least(
+            "paper",
+            "pose_cell_path",
+            "experience_map",
+            5.0,
+            "(a) The pose-cell map is bent: its peak path in metres is >= 5x worse than the experience map.",
+            "pose_cells_bent",
+        ),
         count_at_least("paper", "snaps", 1, "(a) The pose-cell peak path shows snaps.", "pose_cell_snaps"),
-        Claim("only_orientation_differs",
-              "(b) Only the experience map's global orientation differs: after a rotation and "
-              "translation it fits ground truth (ATE <= 0.3 m); the rotation is reported.",
-              lambda m: (f"alignment yaw {_v(m, 'paper')['alignment_yaw_deg']['experience_map']:.1f} deg, "
-                         f"ATE {_v(m, 'paper')['ate']['experience_map']:.3f} m",
-                         _v(m, "paper")["ate"]["experience_map"] <= 0.3)),
+        Claim(
+            "only_orientation_differs",
+            "(b) Only the experience map's global orientation differs: after a rotation and "
+            "translation it fits ground truth (ATE <= 0.3 m); the rotation is reported.",
+            lambda m: (
+                f"alignment yaw {_v(m, 'paper')['alignment_yaw_deg']['experience_map']:.1f} deg, "
+                f"ATE {_v(m, 'paper')['ate']['experience_map']:.3f} m",
+                _v(m, "paper")["ate"]["experience_map"] <= 0.3,
+            ),
+        ),
     ]
     if bias <= 1.5:
         claims += [
-            ate_at_most("odometric", "experience_map", 0.5,
-                        f"Bias {bias} deg/s in the odometry itself: experience map ATE <= 0.5 m.",
-                        "odometric_experience_map"),
-            ate_at_most("odometric_bias_var", "gtsam", 0.5,
-                        f"Bias {bias} deg/s in the odometry itself: GTSAM, estimating the yaw-rate bias as a "
-                        "graph variable, ATE <= 0.5 m.", "odometric_gtsam"),
-            ratio_at_least("odometric", "odometry", "experience_map", 5.0,
-                           "Bias in the odometry: experience map >= 5x better than odometry.",
-                           "odometric_ratio_ratslam"),
-            ratio_at_least("odometric_bias_var", "odometry", "gtsam", 5.0,
-                           "Bias in the odometry: GTSAM with the bias variable >= 5x better than odometry.",
-                           "odometric_ratio_gtsam"),
+            ate_at_most(
+                "odometric",
+                "experience_map",
+                0.5,
+                f"Bias {bias} deg/s in the odometry itself: experience map ATE <= 0.5 m.",
+                "odometric_experience_map",
+            ),
+            ate_at_most(
+                "odometric_bias_var",
+                "gtsam",
+                0.5,
+                f"Bias {bias} deg/s in the odometry itself: GTSAM, estimating the yaw-rate bias as a "
+                "graph variable, ATE <= 0.5 m.",
+                "odometric_gtsam",
+            ),
+            ratio_at_least(
+                "odometric",
+                "odometry",
+                "experience_map",
+                5.0,
+                "Bias in the odometry: experience map >= 5x better than odometry.",
+                "odometric_ratio_ratslam",
+            ),
+            ratio_at_least(
+                "odometric_bias_var",
+                "odometry",
+                "gtsam",
+                5.0,
+                "Bias in the odometry: GTSAM with the bias variable >= 5x better than odometry.",
+                "odometric_ratio_gtsam",
+            ),
         ]
     return tuple(claims)
 
@@ -130,24 +169,33 @@ def _bias_figure(name: str, bias: float) -> Figure:
     return Figure(
         name=name,
         title=f"Small loop, 15 min, odometric bias {bias} deg/s",
-        world="small_loop", duration=900.0, seed=0, fp_rate=0.002,
-        variants=(Variant("paper", f"{bias} deg/s in RatSLAM's path integration (the paper's manipulation)",
-                          pi_bias=bias),
-                  Variant("odometric", f"{bias} deg/s in the odometry seen by both systems",
-                          odometric_bias=bias),
-                  Variant("odometric_bias_var", f"{bias} deg/s in the odometry; the pose graph estimates a "
-                          "yaw-rate bias variable (what a practitioner does about a gyro bias)",
-                          odometric_bias=bias, gtsam_yaw_bias=True)),
+        world="small_loop",
+        duration=900.0,
+        seed=0,
+        fp_rate=0.002,
+        variants=(
+            Variant("paper", f"{bias} deg/s in RatSLAM's path integration (the paper's manipulation)", pi_bias=bias),
+            Variant("odometric", f"{bias} deg/s in the odometry seen by both systems", odometric_bias=bias),
+            Variant(
+                "odometric_bias_var",
+                f"{bias} deg/s in the odometry; the pose graph estimates a "
+                "yaw-rate bias variable (what a practitioner does about a gyro bias)",
+                odometric_bias=bias,
+                gtsam_yaw_bias=True,
+            ),
+        ),
         claims=_bias_claims(bias),
-        notes=("The paper adds the bias to show the pose cells bending while the experience map stays true. "
-               "The 'paper' variant distorts only the pose cells' path integration (experience transitions "
-               "keep the wheel odometry); the 'odometric' variant puts the bias in the odometry itself, seen "
-               "by every consumer; 'odometric_bias_var' is the same stream with the pose graph estimating a "
-               "constant yaw-rate bias variable, as a practitioner would for a gyro bias. A lap takes ~65 s, "
-               "so 1.5 / 3 / 6 deg/s add ~100 / 195 / 390 deg of heading per lap: without the bias "
-               "variable the pose graph's wrapped angle residuals cannot close a loop whose heading error "
-               "has grown that far, while each of RatSLAM's experience transitions (about 1 m) carries only "
-               "a few degrees of it. The variants' tables show which system closes the loop at this bias."),
+        notes=(
+            "The paper adds the bias to show the pose cells bending while the experience map stays true. "
+            "The 'paper' variant distorts only the pose cells' path integration (experience transitions "
+            "keep the wheel odometry); the 'odometric' variant puts the bias in the odometry itself, seen "
+            "by every consumer; 'odometric_bias_var' is the same stream with the pose graph estimating a "
+            "constant yaw-rate bias variable, as a practitioner would for a gyro bias. A lap takes ~65 s, "
+            "so 1.5 / 3 / 6 deg/s add ~100 / 195 / 390 deg of heading per lap: without the bias "
+            "variable the pose graph's wrapped angle residuals cannot close a loop whose heading error "
+            "has grown that far, while each of RatSLAM's experience transitions (about 1 m) carries only "
+            "a few degrees of it. The variants' tables show which system closes the loop at this bias."
+        ),
     )
 
 
@@ -158,86 +206,160 @@ def _register(fig: Figure) -> None:
     FIGURES[fig.name] = fig
 
 
-_register(Figure(
-    name="fig4", title="Office floor, 2.5 h exploration", world="office_floor", duration=9000.0,
-    grid=(40, 40, 36),
-    variants=(Variant("default", "rooms B and C show their own scenes", lookalikes=False),
-              Variant("lookalike_rooms", "rooms B and C show the same scenes (the world file as shipped)")),
-    claims=(
-        count_at_least("default", "snaps", 1, "The pose-cell peak snaps when familiar scenes are seen.", "snaps"),
-        count_at_least("default", "multiple_representations", 1,
-                       "Places have multiple representations in the pose cells (D/E).", "multiple_representations"),
-        count_at_least("default", "hash_collisions", 1,
-                       "At least one pose-cell region serves places far apart (hash collision, F).",
-                       "hash_collision"),
-        ate_at_most("default", "experience_map", 0.5,
-                    "Yet the experience map is consistent (SE(2)-aligned ATE <= 0.5 m).",
-                    "experience_map_consistent"),
-    ),
-    notes="Pose-cell grid 40 x 40 cells of 0.25 m (10 m x 10 m) wraps on a 25 m x 13 m floor, so that "
-          "hash collisions can happen, as in the paper's Fig 4 F. The world file makes rooms B and C show "
-          "the same scene numbers (the paper's look-alike places B and C). The primary variant runs with "
-          "B and C showing their own scenes; the 'lookalike_rooms' variant runs the world as shipped. There, "
-          "on entering B the sequence of C's familiar scenes snaps the pose-cell packet to C's cells "
-          "(19 m away) and the experience map adopts the B-C transitions: RatSLAM's view-driven "
-          "relocalisation has no defence against a whole room that looks like another, while the pose "
-          "graph's robust closures, gated by the odometry, reject them (compare the two variants' tables).",
-))
+_register(
+    Figure(
+        name="fig4",
+        title="Office floor, 2.5 h exploration",
+        world="office_floor",
+        duration=9000.0,
+        grid=(40, 40, 36),
+        variants=(
+            Variant("default", "rooms B and C show their own scenes", lookalikes=False),
+            Variant("lookalike_rooms", "rooms B and C show the same scenes (the world file as shipped)"),
+        ),
+        claims=(
+            count_at_least("default", "snaps", 1, "The pose-cell peak snaps when familiar scenes are seen.", "snaps"),
+            count_at_least(
+                "default",
+                "multiple_representations",
+                1,
+                "Places have multiple representations in the pose cells (D/E).",
+                "multiple_representations",
+            ),
+            count_at_least(
+                "default",
+                "hash_collisions",
+                1,
+                "At least one pose-cell region serves places far apart (hash collision, F).",
+                "hash_collision",
+            ),
+            ate_at_most(
+                "default",
+                "experience_map",
+                0.5,
+                "Yet the experience map is consistent (SE(2)-aligned ATE <= 0.5 m).",
+                "experience_map_consistent",
+            ),
+        ),
+        notes="Pose-cell grid 40 x 40 cells of 0.25 m (10 m x 10 m) wraps on a 25 m x 13 m floor, so that "
+        "hash collisions can happen, as in the paper's Fig 4 F. The world file makes rooms B and C show "
+        "the same scene numbers (the paper's look-alike places B and C). The primary variant runs with "
+        "B and C showing their own scenes; the 'lookalike_rooms' variant runs the world as shipped. There, "
+        "on entering B the sequence of C's familiar scenes snaps the pose-cell packet to C's cells "
+        "(19 m away) and the experience map adopts the B-C transitions: RatSLAM's view-driven "
+        "relocalisation has no defence against a whole room that looks like another, while the pose "
+        "graph's robust closures, gated by the odometry, reject them (compare the two variants' tables).",
+    )
+)
 
-_register(Figure(
-    name="fig7", title="Small loop environment and route, 15 min", world="small_loop", duration=900.0,
-    claims=(
-        Claim("loop_length", "The loop is about 18 m long (within 10%).",
-              lambda m: (f"lap {m['world']['lap_length_m']:.2f} m",
-                         abs(m["world"]["lap_length_m"] - 18.0) <= 1.8)),
-        ate_at_most("default", "experience_map", 0.3, "The experience map of the loop is consistent.",
-                    "experience_map_consistent"),
-    ),
-))
+_register(
+    Figure(
+        name="fig7",
+        title="Small loop environment and route, 15 min",
+        world="small_loop",
+        duration=900.0,
+        claims=(
+            Claim(
+                "loop_length",
+                "The loop is about 18 m long (within 10%).",
+                lambda m: (f"lap {m['world']['lap_length_m']:.2f} m", abs(m["world"]["lap_length_m"] - 18.0) <= 1.8),
+            ),
+            ate_at_most(
+                "default",
+                "experience_map",
+                0.3,
+                "The experience map of the loop is consistent.",
+                "experience_map_consistent",
+            ),
+        ),
+    )
+)
 
 _register(_bias_figure("fig8", 1.5))
 _register(_bias_figure("fig9", 3.0))
 _register(_bias_figure("fig10", 6.0))
 
-_register(Figure(
-    name="fig11", title="Full floor, loops G and H lap one room", world="full_floor", duration=3600.0,
-    grid=(60, 60, 36),
-    claims=(
-        Claim("g_h_two_pose_cell_loops",
-              "The twice-lapped room appears as two loops in the pose cells (lap centres >= 1 m apart).",
-              lambda m: (f"pose-cell lap centres {m['rooms']['pose_cell_separation_m']:.2f} m apart",
-                         m["rooms"]["pose_cell_separation_m"] >= 1.0)),
-        Claim("g_h_overlap_in_experience_map",
-              "... but the two laps overlap in the experience map (lap centres <= 0.5 m apart).",
-              lambda m: (f"experience-map lap centres {m['rooms']['experience_map_separation_m']:.2f} m apart",
-                         m["rooms"]["experience_map_separation_m"] <= 0.5)),
-        count_at_least("default", "multiple_representations", 1,
-                       "Places have multiple representations in the pose cells.", "multiple_representations"),
-        count_at_least("default", "hash_collisions", 1,
-                       "At least one pose-cell region serves places far apart (hash collision).",
-                       "hash_collision"),
-        ate_at_most("default", "experience_map", 0.5, "The experience map is consistent (ATE <= 0.5 m).",
-                    "experience_map_consistent"),
-    ),
-    notes="The two laps of room G/H are driven the same way round, so the second lap sees the first "
-          "lap's scenes and the pose cells relocalise onto the first lap (lap centres 0.03 m apart): the "
-          "'two pose-cell loops' claim does not hold here. It could only hold if the pose cells drifted "
-          "by a metre or more between the laps and then failed to relocalise; measured on the first "
-          "20 minutes: with view injection off, path integration alone puts the laps 0.30 m apart, and "
-          "with 0.3 or 1 deg/s of odometric bias added the pose cells still relocalise (0.02 m) while "
-          "the experience map degrades (ATE 0.52 / 7.7 m over the hour).",
-))
+_register(
+    Figure(
+        name="fig11",
+        title="Full floor, loops G and H lap one room",
+        world="full_floor",
+        duration=3600.0,
+        grid=(60, 60, 36),
+        claims=(
+            Claim(
+                "g_h_two_pose_cell_loops",
+                "The twice-lapped room appears as two loops in the pose cells (lap centres >= 1 m apart).",
+                lambda m: (
+                    f"pose-cell lap centres {m['rooms']['pose_cell_separation_m']:.2f} m apart",
+                    m["rooms"]["pose_cell_separation_m"] >= 1.0,
+                ),
+            ),
+            Claim(
+                "g_h_overlap_in_experience_map",
+                "... but the two laps overlap in the experience map (lap centres <= 0.5 m apart).",
+                lambda m: (
+                    f"experience-map lap centres {m['rooms']['experience_map_separation_m']:.2f} m apart",
+                    m["rooms"]["experience_map_separation_m"] <= 0.5,
+                ),
+            ),
+            count_at_least(
+                "default",
+                "multiple_representations",
+                1,
+                "Places have multiple representations in the pose cells.",
+                "multiple_representations",
+            ),
+            count_at_least(
+                "default",
+                "hash_collisions",
+                1,
+                "At least one pose-cell region serves places far apart (hash collision).",
+                "hash_collision",
+            ),
+            ate_at_most(
+                "default",
+                "experience_map",
+                0.5,
+                "The experience map is consistent (ATE <= 0.5 m).",
+                "experience_map_consistent",
+            ),
+        ),
+        notes="The two laps of room G/H are driven the same way round, so the second lap sees the first "
+        "lap's scenes and the pose cells relocalise onto the first lap (lap centres 0.03 m apart): the "
+        "'two pose-cell loops' claim does not hold here. It could only hold if the pose cells drifted "
+        "by a metre or more between the laps and then failed to relocalise; measured on the first "
+        "20 minutes: with view injection off, path integration alone puts the laps 0.30 m apart, and "
+        "with 0.3 or 1 deg/s of odometric bias added the pose cells still relocalise (0.02 m) while "
+        "the experience map degrades (ATE 0.52 / 7.7 m over the hour).",
+    )
+)
 
-_register(Figure(
-    name="fig13", title="Open-plan office, 15 min at 7 Hz", world="open_plan", duration=900.0,
-    claims=(
-        ate_at_most("default", "experience_map", 0.3, "The experience map of the open plan is consistent.",
-                    "experience_map_consistent"),
-        Claim("real_time", "RatSLAM runs faster than real time (the paper: real time on a 1.1 GHz laptop).",
-              lambda m: (f"x{m['variants']['default']['timing']['ratslam_realtime_factor']:.0f} real time",
-                         m["variants"]["default"]["timing"]["ratslam_realtime_factor"] >= 1.0)),
-    ),
-))
+_register(
+    Figure(
+        name="fig13",
+        title="Open-plan office, 15 min at 7 Hz",
+        world="open_plan",
+        duration=900.0,
+        claims=(
+            ate_at_most(
+                "default",
+                "experience_map",
+                0.3,
+                "The experience map of the open plan is consistent.",
+                "experience_map_consistent",
+            ),
+            Claim(
+                "real_time",
+                "RatSLAM runs faster than real time (the paper: real time on a 1.1 GHz laptop).",
+                lambda m: (
+                    f"x{m['variants']['default']['timing']['ratslam_realtime_factor']:.0f} real time",
+                    m["variants"]["default"]["timing"]["ratslam_realtime_factor"] >= 1.0,
+                ),
+            ),
+        ),
+    )
+)
 
 
 def improves_on_odometry(variant: str, system: str, factor: float, statement: str, key: str) -> Claim:
@@ -248,8 +370,11 @@ def improves_on_odometry(variant: str, system: str, factor: float, statement: st
 def closure_quality_at_least(variant: str, precision: float, recall: float, statement: str, key: str) -> Claim:
     def check(m):
         lc = _v(m, variant)["loop_closure"]
-        return (f"precision {lc['precision']:.3f} (need >= {precision}), recall {lc['recall']:.3f} "
-                f"(need >= {recall})", lc["precision"] >= precision and lc["recall"] >= recall)
+        return (
+            f"precision {lc['precision']:.3f} (need >= {precision}), recall {lc['recall']:.3f} (need >= {recall})",
+            lc["precision"] >= precision and lc["recall"] >= recall,
+        )
+
     return Claim(key, statement, check)
 
 
@@ -265,43 +390,73 @@ def _real_log_figure(name: str, title: str, notes: str, map_factor: float, gtsam
     simulator's defaults. Claims: how much each system's map improves on the dead reckoning, and
     the pose graph's loop-closure precision and recall (true: keyframes within 1.5 scene cells)."""
     return Figure(
-        name=name, title=title, world=None, duration=None, real_log=name, fp_rate=0.002,
-        variants=(Variant("derived", "configurations derived from the log's scale (what replay does)",
-                          derived_scale=True),
-                  Variant("simulator_defaults", "the defaults, tuned to the simulated 0.3 m/s robot at 7 Hz")),
-        claims=(
-            improves_on_odometry("derived", "experience_map", map_factor,
-                                 _improvement("RatSLAM's experience map", map_factor) + ".", "experience_map_improves"),
-            improves_on_odometry("derived", "gtsam", gtsam_factor,
-                                 _improvement("The pose graph", gtsam_factor) + ".", "gtsam_improves"),
-            closure_quality_at_least("derived", 0.9, 0.5, "The pose graph's accepted loop closures are mostly "
-                                     "true (precision >= 0.9) and it accepts at least half the true ones.",
-                                     "closure_quality"),
+        name=name,
+        title=title,
+        world=None,
+        duration=None,
+        real_log=name,
+        fp_rate=0.002,
+        variants=(
+            Variant("derived", "configurations derived from the log's scale (what replay does)", derived_scale=True),
+            Variant("simulator_defaults", "the defaults, tuned to the simulated 0.3 m/s robot at 7 Hz"),
         ),
-        notes=notes)
+        claims=(
+            improves_on_odometry(
+                "derived",
+                "experience_map",
+                map_factor,
+                _improvement("RatSLAM's experience map", map_factor) + ".",
+                "experience_map_improves",
+            ),
+            improves_on_odometry(
+                "derived", "gtsam", gtsam_factor, _improvement("The pose graph", gtsam_factor) + ".", "gtsam_improves"
+            ),
+            closure_quality_at_least(
+                "derived",
+                0.9,
+                0.5,
+                "The pose graph's accepted loop closures are mostly "
+                "true (precision >= 0.9) and it accepts at least half the true ones.",
+                "closure_quality",
+            ),
+        ),
+        notes=notes,
+    )
 
 
-_PLAZA_NOTES = ("Real wheel odometry of a vehicle (CMU Plaza, shipped in the gtsam package); scene numbers "
-                "are synthesised from its ground truth by the simulator's scene model (2 m cells, 4 heading "
-                "sectors, 10% aliased, 10% blank, 0.2% false positives; the seed draws flicker and false "
-                "positives). Both systems see only the odometry and the scene numbers.")
+_PLAZA_NOTES = (
+    "Real wheel odometry of a vehicle (CMU Plaza, shipped in the gtsam package); scene numbers "
+    "are synthesised from its ground truth by the simulator's scene model (2 m cells, 4 heading "
+    "sectors, 10% aliased, 10% blank, 0.2% false positives; the seed draws flicker and false "
+    "positives). Both systems see only the odometry and the scene numbers."
+)
 
-_register(_real_log_figure(
-    "plaza1", "CMU Plaza 1: a vehicle's wheel odometry, 1 m/s at 5 Hz, 32 min",
-    _PLAZA_NOTES + " Plaza 1's dead reckoning is good (1.47 m ATE over 1.9 km; its heading does not "
-    "drift): scene numbers that place the vehicle only within a 2 m cell and a 90 deg sector improve on it "
-    "only with a noise model that trusts its heading, which the derived configuration reads from the log's "
-    "revisits (harness/scale.py), and RatSLAM's re-entries fused with the map's own prediction "
-    "(reentry_position_sigma_m). Measured over label seeds 0/1/2: experience map 1.30/1.33/1.39 m, "
-    "pose graph 0.50/0.98/0.50 m; the claims' margins come from these.",
-    map_factor=1.0, gtsam_factor=1.3))
+_register(
+    _real_log_figure(
+        "plaza1",
+        "CMU Plaza 1: a vehicle's wheel odometry, 1 m/s at 5 Hz, 32 min",
+        _PLAZA_NOTES + " Plaza 1's dead reckoning is good (1.47 m ATE over 1.9 km; its heading does not "
+        "drift): scene numbers that place the vehicle only within a 2 m cell and a 90 deg sector improve on it "
+        "only with a noise model that trusts its heading, which the derived configuration reads from the log's "
+        "revisits (harness/scale.py), and RatSLAM's re-entries fused with the map's own prediction "
+        "(reentry_position_sigma_m). Measured over label seeds 0/1/2: experience map 1.30/1.33/1.39 m, "
+        "pose graph 0.50/0.98/0.50 m; the claims' margins come from these.",
+        map_factor=1.0,
+        gtsam_factor=1.3,
+    )
+)
 
-_register(_real_log_figure(
-    "plaza2", "CMU Plaza 2: a vehicle's wheel odometry, 3.6 m/s at 10 Hz, 7 min",
-    _PLAZA_NOTES + " Plaza 2's dead reckoning drifts in heading (15.9 m ATE): both systems' loop closures "
-    "hold it on the place labels. Measured over label seeds 0/1/2: experience map 1.60/1.87/1.41 m, "
-    "pose graph 0.51/0.50/0.49 m; the claims' margins come from these.",
-    map_factor=5.0, gtsam_factor=10.0))
+_register(
+    _real_log_figure(
+        "plaza2",
+        "CMU Plaza 2: a vehicle's wheel odometry, 3.6 m/s at 10 Hz, 7 min",
+        _PLAZA_NOTES + " Plaza 2's dead reckoning drifts in heading (15.9 m ATE): both systems' loop closures "
+        "hold it on the place labels. Measured over label seeds 0/1/2: experience map 1.60/1.87/1.41 m, "
+        "pose graph 0.51/0.50/0.49 m; the claims' margins come from these.",
+        map_factor=5.0,
+        gtsam_factor=10.0,
+    )
+)
 
 
 def get_figure(name: str) -> Figure:

@@ -35,10 +35,25 @@ from scipy.spatial import cKDTree
 from worlds.observation_log import publish
 
 __all__ = [
-    "Alignment", "align_se2", "apply_se2", "ate", "ate_rmse", "rpe", "wrap_angle", "wrap_cells",
-    "snap_mask", "snap_count", "MultipleRepresentations", "multiple_representations",
-    "pose_cell_multiple_representations", "HashCollisions", "hash_collisions",
-    "loop_closure_pr", "realtime_factor", "write_tum", "read_tum",
+    "Alignment",
+    "HashCollisions",
+    "MultipleRepresentations",
+    "align_se2",
+    "apply_se2",
+    "ate",
+    "ate_rmse",
+    "hash_collisions",
+    "loop_closure_pr",
+    "multiple_representations",
+    "pose_cell_multiple_representations",
+    "read_tum",
+    "realtime_factor",
+    "rpe",
+    "snap_count",
+    "snap_mask",
+    "wrap_angle",
+    "wrap_cells",
+    "write_tum",
 ]
 
 
@@ -213,12 +228,14 @@ class MultipleRepresentations:
         return self.n_clusters
 
     def as_dict(self) -> dict:
-        return {"pairs": self.n_pairs, "clusters": self.n_clusters,
-                "cluster_sizes": [int(len(c)) for c in self.clusters]}
+        return {
+            "pairs": self.n_pairs,
+            "clusters": self.n_clusters,
+            "cluster_sizes": [int(len(c)) for c in self.clusters],
+        }
 
 
-def multiple_representations(exp_gt_xy, links, radius: float = 0.5,
-                             min_path_m: float = 5.0) -> MultipleRepresentations:
+def multiple_representations(exp_gt_xy, links, radius: float = 0.5, min_path_m: float = 5.0) -> MultipleRepresentations:
     """Experiences of one place that the experience map does not join.
 
     A pair (i, j) counts when the two experiences were within ``radius`` metres of each other
@@ -242,8 +259,11 @@ def multiple_representations(exp_gt_xy, links, radius: float = 0.5,
         raise ValueError(f"links: indices must be in [0, {n}), got [{lk.min()}, {lk.max()}]")
     if not radius > 0:
         raise ValueError(f"radius must be positive, got {radius!r}")
-    close = np.array(sorted(cKDTree(p).query_pairs(radius)), dtype=np.int64).reshape(-1, 2) if n else \
-        np.zeros((0, 2), np.int64)
+    close = (
+        np.array(sorted(cKDTree(p).query_pairs(radius)), dtype=np.int64).reshape(-1, 2)
+        if n
+        else np.zeros((0, 2), np.int64)
+    )
     if len(close):
         lk = lk[lk[:, 0] != lk[:, 1]]
         if math.isinf(min_path_m):
@@ -262,15 +282,19 @@ def multiple_representations(exp_gt_xy, links, radius: float = 0.5,
     return MultipleRepresentations(pairs=close, clusters=clusters, n_pairs=len(close), n_clusters=len(clusters))
 
 
-def pose_cell_multiple_representations(exp_cells_xy, exp_gt_xy, grid_shape, radius: float = 0.5,
-                                       cell_dist: float = 4.0) -> MultipleRepresentations:
+def pose_cell_multiple_representations(
+    exp_cells_xy, exp_gt_xy, grid_shape, radius: float = 0.5, cell_dist: float = 4.0
+) -> MultipleRepresentations:
     """One place coded by distant pose cells (Fig 4 D, E): experiences within ``radius`` m in
     ground truth whose (x', y') cells are more than ``cell_dist`` cells apart (wrap-aware)."""
     c, p = _xy(exp_cells_xy, "exp_cells_xy"), _xy(exp_gt_xy, "exp_gt_xy")
     if len(c) != len(p):
         raise ValueError(f"exp_cells_xy and exp_gt_xy: different lengths ({len(c)} vs {len(p)})")
-    close = np.array(sorted(cKDTree(p).query_pairs(radius)), dtype=np.int64).reshape(-1, 2) if len(p) else \
-        np.zeros((0, 2), np.int64)
+    close = (
+        np.array(sorted(cKDTree(p).query_pairs(radius)), dtype=np.int64).reshape(-1, 2)
+        if len(p)
+        else np.zeros((0, 2), np.int64)
+    )
     if len(close):
         d = wrap_cells(c[close[:, 0]] - c[close[:, 1]], tuple(grid_shape)[:2])
         close = close[np.hypot(d[:, 0], d[:, 1]) > cell_dist]
@@ -292,12 +316,16 @@ class HashCollisions:
         return self.n_regions
 
     def as_dict(self) -> dict:
-        return {"regions": self.n_regions, "pairs": int(len(self.pairs)),
-                "max_spread_m": float(self.spread_m.max()) if len(self.spread_m) else 0.0}
+        return {
+            "regions": self.n_regions,
+            "pairs": int(len(self.pairs)),
+            "max_spread_m": float(self.spread_m.max()) if len(self.spread_m) else 0.0,
+        }
 
 
-def hash_collisions(exp_cells_xy, exp_gt_xy, grid_shape, cell_radius: float = 2.0,
-                    place_dist: float = 2.0) -> HashCollisions:
+def hash_collisions(
+    exp_cells_xy, exp_gt_xy, grid_shape, cell_radius: float = 2.0, place_dist: float = 2.0
+) -> HashCollisions:
     """One pose-cell region serving places more than ``place_dist`` m apart (Fig 4 F).
 
     ``exp_cells_xy``: the experiences' (x', y') pose-cell coordinates; ``exp_gt_xy``: their
@@ -379,11 +407,13 @@ def write_tum(path, t, x, y, theta) -> Path:
     """
     t, x, y, theta = (np.asarray(a, dtype=float).ravel() for a in (t, x, y, theta))
     if not (len(t) == len(x) == len(y) == len(theta)):
-        raise ValueError(f"write_tum: t, x, y, theta have different lengths "
-                         f"({len(t)}, {len(x)}, {len(y)}, {len(theta)})")
+        raise ValueError(
+            f"write_tum: t, x, y, theta have different lengths ({len(t)}, {len(x)}, {len(y)}, {len(theta)})"
+        )
     path = Path(path)
-    data = np.column_stack([t, x, y, np.zeros_like(t), np.zeros_like(t), np.zeros_like(t),
-                            np.sin(theta / 2), np.cos(theta / 2)])
+    data = np.column_stack(
+        [t, x, y, np.zeros_like(t), np.zeros_like(t), np.zeros_like(t), np.sin(theta / 2), np.cos(theta / 2)]
+    )
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w") as fh:

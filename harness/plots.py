@@ -11,14 +11,14 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.collections import LineCollection
 
-from worlds import World  # noqa: E402
-from worlds.plot import draw_world, save_figure  # noqa: E402
+from worlds import World
+from worlds.plot import draw_world, save_figure
 
-from . import metrics  # noqa: E402
+from . import metrics
 
 
 def aligned(est_xy: np.ndarray, ref_xy: np.ndarray, apply_to: np.ndarray | None = None) -> np.ndarray:
@@ -54,8 +54,11 @@ def _world_axes(world: World | None, title: str, frame_xy: np.ndarray):
 
 def panel_world(world: World | None, gt: np.ndarray, odometry: np.ndarray, fp_xy: np.ndarray, path):
     """(a) World (if any), ground truth and (aligned) raw odometry."""
-    fig, ax = _world_axes(world, "(a) world, ground truth and odometry" if world is not None
-                          else "(a) ground truth and odometry", gt[:, :2])
+    fig, ax = _world_axes(
+        world,
+        "(a) world, ground truth and odometry" if world is not None else "(a) ground truth and odometry",
+        gt[:, :2],
+    )
     odo = aligned(odometry[:, :2], gt[:, :2])
     ax.plot(odo[:, 0], odo[:, 1], color="tab:orange", lw=0.6, alpha=0.8, label="odometry (aligned)")
     ax.plot(gt[:, 0], gt[:, 1], color="k", lw=0.6, alpha=0.6, label="ground truth")
@@ -75,8 +78,9 @@ def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, pa
     wrapped = (np.abs(step[:, 0]) > nx / 2) | (np.abs(step[:, 1]) > ny / 2)
     jump = snapped[1:] | wrapped
     ax.add_collection(LineCollection(seg[~jump], colors="tab:blue", linewidths=1.2))
-    ax.add_collection(LineCollection(seg[jump & ~wrapped], colors="tab:red", linewidths=0.4,
-                                     label=f"snaps ({int(snapped.sum())})"))
+    ax.add_collection(
+        LineCollection(seg[jump & ~wrapped], colors="tab:red", linewidths=0.4, label=f"snaps ({int(snapped.sum())})")
+    )
     ax.set_xlim(0, nx)
     ax.set_ylim(0, ny)
     ax.set_xticks(np.arange(0, nx + 1, 4))
@@ -91,8 +95,7 @@ def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, pa
     return save_figure(fig, path)
 
 
-def panel_experience_map(world: World | None, exp_xy: np.ndarray, exp_gt_xy: np.ndarray, links: np.ndarray,
-                         path):
+def panel_experience_map(world: World | None, exp_xy: np.ndarray, exp_gt_xy: np.ndarray, links: np.ndarray, path):
     """(c) Experience map: experiences (dots) and transitions (lines), aligned to ground truth."""
     xy = aligned(exp_xy, exp_gt_xy)
     fig, ax = _world_axes(world, "(c) experience map (aligned to ground truth)", np.vstack([xy, exp_gt_xy]))
@@ -103,8 +106,9 @@ def panel_experience_map(world: World | None, exp_xy: np.ndarray, exp_gt_xy: np.
     return save_figure(fig, path)
 
 
-def panel_gtsam(world: World | None, kf_xy: np.ndarray, kf_gt_xy: np.ndarray, closures: np.ndarray,
-                accepted: np.ndarray, path):
+def panel_gtsam(
+    world: World | None, kf_xy: np.ndarray, kf_gt_xy: np.ndarray, closures: np.ndarray, accepted: np.ndarray, path
+):
     """(d) GTSAM keyframes, accepted (green) and rejected (red) loop closures, aligned to ground truth."""
     xy = aligned(kf_xy, kf_gt_xy)
     fig, ax = _world_axes(world, "(d) GTSAM pose graph (aligned to ground truth)", np.vstack([xy, kf_gt_xy]))
@@ -112,9 +116,15 @@ def panel_gtsam(world: World | None, kf_xy: np.ndarray, kf_gt_xy: np.ndarray, cl
     closures = np.asarray(closures, dtype=int).reshape(-1, 2)
     if len(closures):
         acc = np.asarray(accepted, dtype=bool)
-        ax.add_collection(LineCollection(xy[closures[acc]], colors="tab:green", linewidths=0.4,
-                                         label=f"accepted closures ({int(acc.sum())})"))
-        ax.add_collection(LineCollection(xy[closures[~acc]], colors="tab:red", linewidths=0.4,
-                                         label=f"rejected closures ({int((~acc).sum())})"))
+        ax.add_collection(
+            LineCollection(
+                xy[closures[acc]], colors="tab:green", linewidths=0.4, label=f"accepted closures ({int(acc.sum())})"
+            )
+        )
+        ax.add_collection(
+            LineCollection(
+                xy[closures[~acc]], colors="tab:red", linewidths=0.4, label=f"rejected closures ({int((~acc).sum())})"
+            )
+        )
     ax.legend(loc="upper right", fontsize=7)
     return save_figure(fig, path)

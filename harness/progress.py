@@ -13,8 +13,15 @@ class Progress:
     processes share the terminal) it prints a line every 10%.
     """
 
-    def __init__(self, total: int, label: str, dt: float | None = None, stream=None, enabled: bool = True,
-                 redraw: bool | None = None):
+    def __init__(
+        self,
+        total: int,
+        label: str,
+        dt: float | None = None,
+        stream=None,
+        enabled: bool = True,
+        redraw: bool | None = None,
+    ):
         self.total, self.label, self.dt = max(1, total), label, dt
         self.stream = stream or sys.stderr
         self.enabled = enabled

@@ -88,8 +88,9 @@ def _segments(segs: np.ndarray) -> pa.Array:
     for 6,500 transitions)."""
     segs = np.array(segs, dtype=np.float32, copy=True).reshape(-1, 2, 2)  # never alias the caller's buffer
     offsets = pa.array(np.arange(0, 2 * len(segs) + 1, 2, dtype=np.int32))
-    return pa.ListArray.from_arrays(offsets, Vec2DBatch(segs.reshape(-1, 2)).as_arrow_array(),
-                                    type=LineStrip2DBatch._ARROW_DATATYPE)
+    return pa.ListArray.from_arrays(
+        offsets, Vec2DBatch(segs.reshape(-1, 2)).as_arrow_array(), type=LineStrip2DBatch._ARROW_DATATYPE
+    )
 
 
 class _SegmentBuffer:
@@ -120,10 +121,13 @@ class _SegmentBuffer:
         # and these buffers are overwritten by the next rows.
         rec.send_columns(
             self.entity,
-            indexes=[rr.TimeColumn("tick", sequence=self.ticks[:n].copy()),
-                     rr.TimeColumn("sim_time", duration=self.times[:n].copy())],
-            columns=rr.LineStrips2D.columns(strips=_segments(self.segs[:n]), colors=self.colors[:n].copy(),
-                                            radii=self.radii[:n].copy()),
+            indexes=[
+                rr.TimeColumn("tick", sequence=self.ticks[:n].copy()),
+                rr.TimeColumn("sim_time", duration=self.times[:n].copy()),
+            ],
+            columns=rr.LineStrips2D.columns(
+                strips=_segments(self.segs[:n]), colors=self.colors[:n].copy(), radii=self.radii[:n].copy()
+            ),
         )
         self.n = 0
 
@@ -158,11 +162,27 @@ class Recorder:
         the inputs; its bytes are not (rerun's chunk and row ids are time-based).
     """
 
-    def __init__(self, path, walls=None, grid_shape=(60, 60, 36), *, every_activity: int = 35,
-                 every_map: int = 70, every_closures: int = 700, flush_every: int = 70, align: bool = True,
-                 world_bounds=None, application_id: str = "ratslam-harness", recording_id: str | None = None):
-        for name, v in (("every_activity", every_activity), ("every_map", every_map),
-                        ("every_closures", every_closures), ("flush_every", flush_every)):
+    def __init__(
+        self,
+        path,
+        walls=None,
+        grid_shape=(60, 60, 36),
+        *,
+        every_activity: int = 35,
+        every_map: int = 70,
+        every_closures: int = 700,
+        flush_every: int = 70,
+        align: bool = True,
+        world_bounds=None,
+        application_id: str = "ratslam-harness",
+        recording_id: str | None = None,
+    ):
+        for name, v in (
+            ("every_activity", every_activity),
+            ("every_map", every_map),
+            ("every_closures", every_closures),
+            ("flush_every", flush_every),
+        ):
             if not (isinstance(v, (int, np.integer)) and v >= 1):
                 raise ValueError(f"{name} must be a positive integer number of ticks, got {v!r}")
         if len(grid_shape) < 2 or min(int(g) for g in grid_shape[:2]) < 1:
@@ -182,8 +202,10 @@ class Recorder:
         self.rec.save(self._tmp, default_blueprint=default_blueprint(self.grid_shape, world_bounds))
         self._closed = False
         self._lut = _viridis_lut()
-        self._buffers = {name: _SegmentBuffer(name, int(flush_every))
-                         for name in ("world/ground_truth", "world/odometry", "pose_cells/peak")}
+        self._buffers = {
+            name: _SegmentBuffer(name, int(flush_every))
+            for name in ("world/ground_truth", "world/odometry", "pose_cells/peak")
+        }
         cap = 1024
         self._gt = np.full((cap, 3), np.nan)  # ground truth per tick, for alignment and live ATE
         self._odom = np.full((cap, 3), np.nan)
@@ -216,8 +238,9 @@ class Recorder:
                 new[: len(old)] = old
                 setattr(self, name, new)
 
-    def _segment(self, name: str, tick: int, t: float, x: float, y: float, color, radius: float,
-                 draw: bool = True) -> None:
+    def _segment(
+        self, name: str, tick: int, t: float, x: float, y: float, color, radius: float, draw: bool = True
+    ) -> None:
         prev = self._prev.get(name)
         self._prev[name] = (x, y)
         if prev is None or not draw:
@@ -226,8 +249,9 @@ class Recorder:
         if buf.add(tick, t, prev, (x, y), color, radius):
             buf.send(self.rec)
 
-    def log_tick(self, tick: int, t: float, gt_xyt, odom_xyt, ratslam=None, gtsam=None,
-                 false_positive: bool = False) -> None:
+    def log_tick(
+        self, tick: int, t: float, gt_xyt, odom_xyt, ratslam=None, gtsam=None, false_positive: bool = False
+    ) -> None:
         """Record step ``tick`` (step index k, increasing) at simulated time ``t`` seconds.
 
         ``gt_xyt``: true pose (x, y, θ) or None; ``odom_xyt``: dead-reckoned pose in its own
@@ -266,8 +290,16 @@ class Recorder:
             prev = self._prev.get("pose_cells/peak")
             nx, ny = self.grid_shape[0], self.grid_shape[1]
             wrapped = prev is not None and (abs(px - prev[0]) > nx / 2 or abs(py - prev[1]) > ny / 2)
-            self._segment("pose_cells/peak", k, t, px, py, C_SNAP if snapped else C_PEAK,
-                          0.06 if snapped else 0.18, draw=snapped or not wrapped)
+            self._segment(
+                "pose_cells/peak",
+                k,
+                t,
+                px,
+                py,
+                C_SNAP if snapped else C_PEAK,
+                0.06 if snapped else 0.18,
+                draw=snapped or not wrapped,
+            )
             if k % self.every_activity == 0:
                 self._log_activity(k, t, ratslam)
         self._last = (k, t, ratslam, gtsam)
@@ -281,8 +313,9 @@ class Recorder:
         self.rec.set_time("tick", sequence=k)
         self.rec.set_time("sim_time", duration=t)
         # image rows are y', columns x': pixel (x', y') covers cell (x', y')
-        self.rec.log("pose_cells/activity", rr.Image(self._lut[level.T], magnification_filter="Nearest",
-                                                     draw_order=-10.0))
+        self.rec.log(
+            "pose_cells/activity", rr.Image(self._lut[level.T], magnification_filter="Nearest", draw_order=-10.0)
+        )
 
     def _aligned(self, poses: np.ndarray, ticks: np.ndarray):
         """Poses moved into the ground-truth frame (and the ATE), or unchanged without ground truth."""
@@ -321,8 +354,10 @@ class Recorder:
                 if final or k % self.every_closures == 0:
                     pairs = np.asarray(gtsam.loop_closures, dtype=np.int64).reshape(-1, 2)
                     acc = np.asarray(gtsam.closure_accepted, dtype=bool).reshape(-1)
-                    rec.log("world/gtsam/closures", rr.LineStrips2D(_segments(xy[pairs[acc]]), colors=[C_CLOSURE],
-                                                                    radii=[0.015]))
+                    rec.log(
+                        "world/gtsam/closures",
+                        rr.LineStrips2D(_segments(xy[pairs[acc]]), colors=[C_CLOSURE], radii=[0.015]),
+                    )
                     scalars["count/loop_closures_accepted"] = int(acc.sum())
             scalars["count/keyframes"] = len(kf)
         gt, od = self._gt[: k + 1], self._odom[: k + 1]
@@ -405,8 +440,15 @@ class StreamRecorder:
         self._fp = None if false_positive is None else np.asarray(false_positive, dtype=bool)
 
     def on_tick(self, k: int, ratslam, gtsam) -> None:
-        self.recorder.log_tick(k, self._t[k], None if self._gt is None else self._gt[k], self._odom[k],
-                               ratslam, gtsam, bool(self._fp[k]) if self._fp is not None else False)
+        self.recorder.log_tick(
+            k,
+            self._t[k],
+            None if self._gt is None else self._gt[k],
+            self._odom[k],
+            ratslam,
+            gtsam,
+            bool(self._fp[k]) if self._fp is not None else False,
+        )
 
     def close(self) -> Path:
         return self.recorder.close()
@@ -421,8 +463,9 @@ def recorder_factory(run_dir, world, log, ratslam_config, **options) -> StreamRe
     :class:`Recorder`. Odometry is dead-reckoned from the log as the runner does."""
     from .runner import dead_reckon
 
-    rec = Recorder(Path(run_dir) / "recording.rrd", None if world is None else world.walls,
-                   tuple(ratslam_config.shape), **options)
+    rec = Recorder(
+        Path(run_dir) / "recording.rrd", None if world is None else world.walls, tuple(ratslam_config.shape), **options
+    )
     gt = log.ground_truth() if log.has_ground_truth else None
     fp = log.false_positive if log.has_ground_truth else None
     return StreamRecorder(rec, log.t, dead_reckon(log), gt, fp)

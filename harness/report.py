@@ -43,15 +43,25 @@ def write_panels(run_dir: Path, metrics: dict, maps: dict) -> list[Path]:
     exp_ticks = maps["experience_first_tick"].astype(int)
     out = [
         plots.panel_world(world, gt, odo, fp_xy, run_dir / PANELS[0]),
-        plots.panel_pose_cells(maps["peak_cells"], maps["snapped"].astype(bool), tuple(maps["grid_shape"]),
-                               run_dir / PANELS[1]),
-        plots.panel_experience_map(world, maps["experience_poses"][:, :2], gt[exp_ticks, :2],
-                                   maps["links"].astype(int), run_dir / PANELS[2]),
+        plots.panel_pose_cells(
+            maps["peak_cells"], maps["snapped"].astype(bool), tuple(maps["grid_shape"]), run_dir / PANELS[1]
+        ),
+        plots.panel_experience_map(
+            world, maps["experience_poses"][:, :2], gt[exp_ticks, :2], maps["links"].astype(int), run_dir / PANELS[2]
+        ),
     ]
     if "keyframe_poses" in maps and len(maps["keyframe_poses"]):
         kf_ticks = maps["keyframe_ticks"].astype(int)
-        out.append(plots.panel_gtsam(world, maps["keyframe_poses"][:, :2], gt[kf_ticks, :2],
-                                     maps["loop_closures"], maps["closure_accepted"], run_dir / PANELS[3]))
+        out.append(
+            plots.panel_gtsam(
+                world,
+                maps["keyframe_poses"][:, :2],
+                gt[kf_ticks, :2],
+                maps["loop_closures"],
+                maps["closure_accepted"],
+                run_dir / PANELS[3],
+            )
+        )
     return out
 
 
@@ -69,27 +79,41 @@ def render_markdown(metrics: dict, panels: list[str]) -> str:
     lines = [f"# {fig.get('name', 'replay')}: {fig.get('title', metrics.get('title', 'run'))}", ""]
     if metrics.get("world"):
         w = metrics["world"]
-        lines += [f"World `{w['name']}`, {metrics['duration_s']:.0f} s simulated, seed {metrics['seed']}, "
-                  f"false-positive rate {metrics.get('fp_rate', 'n/a')} per tick.", ""]
+        lines += [
+            f"World `{w['name']}`, {metrics['duration_s']:.0f} s simulated, seed {metrics['seed']}, "
+            f"false-positive rate {metrics.get('fp_rate', 'n/a')} per tick.",
+            "",
+        ]
     elif metrics.get("real_log"):
-        lines += [f"Real data set `{metrics['real_log']}`, {metrics['duration_s']:.0f} s, scene numbers "
-                  f"synthesised with seed {metrics['seed']}, false-positive rate {metrics.get('fp_rate', 'n/a')} "
-                  "per tick.", ""]
+        lines += [
+            f"Real data set `{metrics['real_log']}`, {metrics['duration_s']:.0f} s, scene numbers "
+            f"synthesised with seed {metrics['seed']}, false-positive rate {metrics.get('fp_rate', 'n/a')} "
+            "per tick.",
+            "",
+        ]
     if fig.get("notes"):
         lines += [fig["notes"], ""]
     claims = metrics.get("claims", [])
     if claims:
         held = sum(c["held"] for c in claims)
-        lines += [f"## The paper's claims ({held}/{len(claims)} held)", "",
-                  "| claim | measured | held |", "|---|---|---|"]
+        lines += [
+            f"## The paper's claims ({held}/{len(claims)} held)",
+            "",
+            "| claim | measured | held |",
+            "|---|---|---|",
+        ]
         lines += [f"| {c['statement']} | {c['measured']} | {'yes' if c['held'] else '**no**'} |" for c in claims]
         lines.append("")
-    lines += ["## Accuracy", "",
-              "ATE: RMSE of position after least-squares SE(2) alignment to ground truth. "
-              "`experience_map` compares each experience's final map pose with the ground truth where "
-              "it was created (the place it stands for: later entries are related to that place "
-              "through the pose-cell offset, see `offset_transitions`); `*_online` is the estimate "
-              "at every tick; `pose_cell_path` is the pose-cell peak in metres (unwrapped).", ""]
+    lines += [
+        "## Accuracy",
+        "",
+        "ATE: RMSE of position after least-squares SE(2) alignment to ground truth. "
+        "`experience_map` compares each experience's final map pose with the ground truth where "
+        "it was created (the place it stands for: later entries are related to that place "
+        "through the pose-cell offset, see `offset_transitions`); `*_online` is the estimate "
+        "at every tick; `pose_cell_path` is the pose-cell peak in metres (unwrapped).",
+        "",
+    ]
     for name, v in metrics["variants"].items():
         label = metrics.get("variant_labels", {}).get(name, name)
         lines += [f"### Variant `{name}`: {label}", ""]
@@ -100,21 +124,32 @@ def render_markdown(metrics: dict, panels: list[str]) -> str:
             lines.append(f"| {system} | {_fmt(ate)} | {_fmt(v['alignment_yaw_deg'].get(system))} |")
         lc = v.get("loop_closure", {})
         t = v["timing"]
-        lines += ["", f"Experiences {v['experiences']}, transitions {v['links']}, snaps {v['snaps']}, "
-                      f"multiple representations {v['multiple_representations']}, hash collisions "
-                      f"{v['hash_collisions']}.",
-                  f"GTSAM: {v.get('keyframes', 'n/a')} keyframes, loop closures proposed {lc.get('proposed', 'n/a')}, "
-                  f"accepted {lc.get('accepted', 'n/a')}, precision {_fmt(lc.get('precision'))}, "
-                  f"recall {_fmt(lc.get('recall'))}.",
-                  f"Wall time: RatSLAM {t['ratslam_s']:.1f} s (x{_fmt(t['ratslam_realtime_factor'])} real time), "
-                  f"GTSAM {t['gtsam_s']:.1f} s (x{_fmt(t['gtsam_realtime_factor'])} real time).", ""]
+        lines += [
+            "",
+            f"Experiences {v['experiences']}, transitions {v['links']}, snaps {v['snaps']}, "
+            f"multiple representations {v['multiple_representations']}, hash collisions "
+            f"{v['hash_collisions']}.",
+            f"GTSAM: {v.get('keyframes', 'n/a')} keyframes, loop closures proposed {lc.get('proposed', 'n/a')}, "
+            f"accepted {lc.get('accepted', 'n/a')}, precision {_fmt(lc.get('precision'))}, "
+            f"recall {_fmt(lc.get('recall'))}.",
+            f"Wall time: RatSLAM {t['ratslam_s']:.1f} s (x{_fmt(t['ratslam_realtime_factor'])} real time), "
+            f"GTSAM {t['gtsam_s']:.1f} s (x{_fmt(t['gtsam_realtime_factor'])} real time).",
+            "",
+        ]
     if panels:
         lines += ["## Panels", ""] + [f"![{p}]({p})" for p in panels] + [""]
-    lines += ["## Recording", "",
-              "Open the Rerun recording of the primary variant with `rerun recording.rrd` "
-              "(rerun-sdk 0.41).", "",
-              "## Provenance", "", "```", *(f"{k}: {v}" for k, v in metrics["provenance"].items()
-                                             if k != "config"), "```", ""]
+    lines += [
+        "## Recording",
+        "",
+        "Open the Rerun recording of the primary variant with `rerun recording.rrd` (rerun-sdk 0.41).",
+        "",
+        "## Provenance",
+        "",
+        "```",
+        *(f"{k}: {v}" for k, v in metrics["provenance"].items() if k != "config"),
+        "```",
+        "",
+    ]
     return "\n".join(lines)
 
 

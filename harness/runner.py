@@ -45,9 +45,14 @@ class StreamResult:
     wall: dict = field(default_factory=dict)  # seconds per system
 
 
-def run_stream(log: ObservationLog, ratslam_config: RatSLAMConfig | None = None,
-               gtsam_config: PoseGraphConfig | None = None, on_tick=None, progress=None,
-               gtsam: bool = True) -> StreamResult:
+def run_stream(
+    log: ObservationLog,
+    ratslam_config: RatSLAMConfig | None = None,
+    gtsam_config: PoseGraphConfig | None = None,
+    on_tick=None,
+    progress=None,
+    gtsam: bool = True,
+) -> StreamResult:
     """Run both systems over ``log``; ``on_tick(k, ratslam, gtsam)`` (e.g. the recorder) sees every tick."""
     rs = RatSLAM(ratslam_config or RatSLAMConfig())
     pg = PoseGraphSLAM(gtsam_config or PoseGraphConfig())
@@ -82,6 +87,12 @@ def run_stream(log: ObservationLog, ratslam_config: RatSLAMConfig | None = None,
     if gtsam:
         pg.finalize()
     t_pg += clock() - t0
-    return StreamResult(t=log.t, odometry=odometry, snapped=snapped, ratslam=rs, gtsam=pg,
-                        wall={"ratslam_s": t_rs, "gtsam_s": t_pg, "recording_and_bookkeeping_s": t_rec},
-                        **out)
+    return StreamResult(
+        t=log.t,
+        odometry=odometry,
+        snapped=snapped,
+        ratslam=rs,
+        gtsam=pg,
+        wall={"ratslam_s": t_rs, "gtsam_s": t_pg, "recording_and_bookkeeping_s": t_rec},
+        **out,
+    )

@@ -101,7 +101,7 @@ REFERENCE_LABEL_LENGTH_M = 0.9
 REFERENCE_NOISE = 0.01
 """Per-tick odometry noise of the simulator, m/s and rad/s."""
 MAX_CELLS_PER_TICK = 0.75
-GAIN_SLOW, GAIN_FAST = (0.2, 1.05), (0.6, 1.0)   # (cells per tick, pc_trans_gain)
+GAIN_SLOW, GAIN_FAST = (0.2, 1.05), (0.6, 1.0)  # (cells per tick, pc_trans_gain)
 REENTRY_HEADING_SIGMA_CELLS = 1.0 / math.sqrt(12.0)
 """Heading uncertainty of a re-entry, in heading cells (uniform over one cell)."""
 
@@ -110,12 +110,12 @@ REENTRY_HEADING_SIGMA_CELLS = 1.0 / math.sqrt(12.0)
 class LogScale:
     """What :func:`measure_log` reads from a log (no ground truth)."""
 
-    dt: float                 # median tick, s
-    speed: float              # median moving speed, m/s
-    step: float               # speed * dt, m per tick
-    label_length: float       # distance-weighted median run of one scene number, m
-    sigma_v: float            # per-tick speed noise, m/s
-    sigma_w: float            # per-tick yaw-rate noise, rad/s
+    dt: float  # median tick, s
+    speed: float  # median moving speed, m/s
+    step: float  # speed * dt, m per tick
+    label_length: float  # distance-weighted median run of one scene number, m
+    sigma_v: float  # per-tick speed noise, m/s
+    sigma_w: float  # per-tick yaw-rate noise, rad/s
 
 
 def ladder(ratio: float) -> float:
@@ -151,26 +151,32 @@ def measure_log(log) -> LogScale:
         if runs.size:
             cum = np.cumsum(runs)
             label_length = float(runs[np.searchsorted(cum, 0.5 * cum[-1])])
-    return LogScale(dt=dt, speed=speed, step=speed * dt, label_length=label_length,
-                    sigma_v=_noise(np.asarray(log.v_trans, float)), sigma_w=_noise(np.asarray(log.v_rot, float)))
+    return LogScale(
+        dt=dt,
+        speed=speed,
+        step=speed * dt,
+        label_length=label_length,
+        sigma_v=_noise(np.asarray(log.v_trans, float)),
+        sigma_w=_noise(np.asarray(log.v_rot, float)),
+    )
 
 
 @dataclass(frozen=True)
 class RevisitNoise:
     """What :func:`revisit_noise` reads from a log's revisits (no ground truth)."""
 
-    pairs: int                # revisit pairs (scene onset -> nearest earlier onset of that number)
-    k_v: float                # maximum-likelihood sigma_v / REFERENCE_NOISE (ladder grid)
-    k_w: float                # maximum-likelihood sigma_w / REFERENCE_NOISE
-    k_closure: float          # maximum-likelihood revisit scatter / closure_sigma_xy
+    pairs: int  # revisit pairs (scene onset -> nearest earlier onset of that number)
+    k_v: float  # maximum-likelihood sigma_v / REFERENCE_NOISE (ladder grid)
+    k_w: float  # maximum-likelihood sigma_w / REFERENCE_NOISE
+    k_closure: float  # maximum-likelihood revisit scatter / closure_sigma_xy
     inlier_fraction: float
-    support_v: tuple          # ladder values of k_v (resp. k_w) whose profile log-likelihood is
-    support_w: tuple          # within REVISIT_SUPPORT of the maximum: (lowest, highest)
+    support_v: tuple  # ladder values of k_v (resp. k_w) whose profile log-likelihood is
+    support_w: tuple  # within REVISIT_SUPPORT of the maximum: (lowest, highest)
 
 
-REVISIT_GRID = tuple(2.0 ** (i / 2.0) for i in range(-14, 15))       # 1/128 .. 128
+REVISIT_GRID = tuple(2.0 ** (i / 2.0) for i in range(-14, 15))  # 1/128 .. 128
 REVISIT_CLOSURE_GRID = tuple(2.0 ** (i / 2.0) for i in range(-6, 3))  # 1/8 .. 2
-REVISIT_SUPPORT = 2.0       # log-likelihood units: the usual ~95% profile interval (chi2_1 / 2)
+REVISIT_SUPPORT = 2.0  # log-likelihood units: the usual ~95% profile interval (chi2_1 / 2)
 REVISIT_MIN_PAIRS = 30
 
 
@@ -220,7 +226,7 @@ def revisit_noise(log, min_travel: float, closure_sigma: float, margin: float = 
         if not eligible:
             continue
         i = eligible[-1]
-        a, b = i + 1, j + 1                       # ticks i+1..j lead from onset i to onset j
+        a, b = i + 1, j + 1  # ticks i+1..j lead from onset i to onset j
         e_list.append((px[j] - px[i], py[j] - py[i]))
         a_list.append((p_uxx[b] - p_uxx[a], p_uxy[b] - p_uxy[a], p_uyy[b] - p_uyy[a]))
         X, Y, n0 = px[j], py[j], p1[b] - p1[a]
@@ -228,7 +234,7 @@ def revisit_noise(log, min_travel: float, closure_sigma: float, margin: float = 
         cxx = X * X * n0 - 2.0 * X * sx + (p_xx[b] - p_xx[a])
         cyy = Y * Y * n0 - 2.0 * Y * sy + (p_yy[b] - p_yy[a])
         cxy = X * Y * n0 - X * sy - Y * sx + (p_xy[b] - p_xy[a])
-        b_list.append((cyy, -cxy, cxx))           # J C J^T
+        b_list.append((cyy, -cxy, cxx))  # J C J^T
     if len(e_list) < REVISIT_MIN_PAIRS:
         return None
     e, A, B = np.asarray(e_list), np.asarray(a_list), np.asarray(b_list)
@@ -255,8 +261,15 @@ def revisit_noise(log, min_travel: float, closure_sigma: float, margin: float = 
     (kv, kw), (ll, kc, pi) = max(table.items(), key=lambda item: item[1][0])
     near = [key for key, val in table.items() if val[0] >= ll - REVISIT_SUPPORT]
     sv, sw = sorted(k[0] for k in near), sorted(k[1] for k in near)
-    return RevisitNoise(pairs=len(e), k_v=kv, k_w=kw, k_closure=kc, inlier_fraction=pi,
-                        support_v=(sv[0], sv[-1]), support_w=(sw[0], sw[-1]))
+    return RevisitNoise(
+        pairs=len(e),
+        k_v=kv,
+        k_w=kw,
+        k_closure=kc,
+        inlier_fraction=pi,
+        support_v=(sv[0], sv[-1]),
+        support_w=(sw[0], sw[-1]),
+    )
 
 
 def trans_gain(cells_per_tick: float) -> float:
@@ -269,8 +282,9 @@ def trans_gain(cells_per_tick: float) -> float:
     return round(g0 + (g1 - g0) * (cells_per_tick - c0) / (c1 - c0), 3)
 
 
-def derive_configs(log, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphConfig | None = None
-                   ) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
+def derive_configs(
+    log, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphConfig | None = None
+) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
     """RatSLAM and pose-graph configurations for ``log``: ``ratslam`` / ``gtsam`` (default: the
     defaults) with their distance- and tick-dependent fields scaled to the log (module doc).
     Returns both and a description of what was measured and derived."""
@@ -288,9 +302,12 @@ def derive_configs(log, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphCo
         rs_new = rs.replace(cell_size_m=cell, pc_trans_gain=trans_gain(cpt))
     pg_new = pg
     if k_scene != 1.0:
-        pg_new = dataclasses.replace(pg_new, keyframe_distance=pg.keyframe_distance * k_scene,
-                                     closure_sigma_xy=pg.closure_sigma_xy * k_scene,
-                                     closure_min_travel=pg.closure_min_travel * k_scene)
+        pg_new = dataclasses.replace(
+            pg_new,
+            keyframe_distance=pg.keyframe_distance * k_scene,
+            closure_sigma_xy=pg.closure_sigma_xy * k_scene,
+            closure_min_travel=pg.closure_min_travel * k_scene,
+        )
     revisits, revisit_text = None, ""
     if k_v != 1.0 or k_w != 1.0:
         # The rates' roughness is not the simulator's white noise: test it against the revisits.
@@ -300,26 +317,38 @@ def derive_configs(log, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphCo
             k_v = k_v if lo <= k_v <= hi else revisits.k_v
             lo, hi = revisits.support_w
             k_w = k_w if lo <= k_w <= hi else revisits.k_w
-            revisit_text = (f" Revisits ({revisits.pairs} scene-onset pairs, {revisits.inlier_fraction:.0%} inliers): "
-                            f"most likely noise x{revisits.k_v:g} (x{revisits.support_v[0]:g}-x{revisits.support_v[1]:g}), "
-                            f"x{revisits.k_w:g} (x{revisits.support_w[0]:g}-x{revisits.support_w[1]:g}), onset scatter "
-                            f"x{revisits.k_closure:g} of closure_sigma_xy; used x{k_v:g}, x{k_w:g}.")
+            revisit_text = (
+                f" Revisits ({revisits.pairs} scene-onset pairs, {revisits.inlier_fraction:.0%} inliers): "
+                f"most likely noise x{revisits.k_v:g} (x{revisits.support_v[0]:g}-x{revisits.support_v[1]:g}), "
+                f"x{revisits.k_w:g} (x{revisits.support_w[0]:g}-x{revisits.support_w[1]:g}), onset scatter "
+                f"x{revisits.k_closure:g} of closure_sigma_xy; used x{k_v:g}, x{k_w:g}."
+            )
         pg_new = dataclasses.replace(pg_new, odom_sigma_v=pg.odom_sigma_v * k_v, odom_sigma_w=pg.odom_sigma_w * k_w)
         # RatSLAM's re-entry fusion, with the pose graph's noise model (module doc)
-        rs_new = rs_new.replace(reentry_position_sigma_m=pg_new.closure_sigma_xy,
-                                reentry_heading_sigma_deg=REENTRY_HEADING_SIGMA_CELLS * 360.0 / rs.n_theta,
-                                odom_speed_noise=pg_new.odom_sigma_v, odom_heading_noise=pg_new.odom_sigma_w)
-    text = (f"Measured from the log (no ground truth): tick {m.dt:.3f} s, moving speed {m.speed:.3f} m/s, "
-            f"{m.step:.4f} m per tick (x{k_step:g} of the reference 0.3 m/s at 7 Hz), label length {m.label_length:.2f} m "
-            f"(x{k_scene:g} of {REFERENCE_LABEL_LENGTH_M} m), odometry noise {m.sigma_v:.4f} m/s, {m.sigma_w:.4f} rad/s "
-            f"(x{rough_v:g}, x{rough_w:g} of {REFERENCE_NOISE})." + revisit_text + "\n"
-            f"Derived: RatSLAM cell_size_m {rs_new.cell_size_m:g} ({cpt:.2f} cells per tick), pc_trans_gain "
-            f"{rs_new.pc_trans_gain:g}"
-            + (f", re-entry fusion (reentry_position_sigma_m {rs_new.reentry_position_sigma_m:.3f}, "
-               f"reentry_heading_sigma_deg {rs_new.reentry_heading_sigma_deg:.2f}, odom_speed_noise "
-               f"{rs_new.odom_speed_noise:g}, odom_heading_noise {rs_new.odom_heading_noise:g})"
-               if rs_new.reentry_position_sigma_m > 0 else "") + f"; GTSAM keyframe_distance {pg_new.keyframe_distance:g} m, closure_sigma_xy "
-            f"{pg_new.closure_sigma_xy:.3f} m, closure_min_travel {pg_new.closure_min_travel:g} m, odom_sigma_v "
-            f"{pg_new.odom_sigma_v:g}, odom_sigma_w {pg_new.odom_sigma_w:g}"
-            + (" (the defaults)" if rs_new == rs and pg_new == pg else "") + ".")
+        rs_new = rs_new.replace(
+            reentry_position_sigma_m=pg_new.closure_sigma_xy,
+            reentry_heading_sigma_deg=REENTRY_HEADING_SIGMA_CELLS * 360.0 / rs.n_theta,
+            odom_speed_noise=pg_new.odom_sigma_v,
+            odom_heading_noise=pg_new.odom_sigma_w,
+        )
+    text = (
+        f"Measured from the log (no ground truth): tick {m.dt:.3f} s, moving speed {m.speed:.3f} m/s, "
+        f"{m.step:.4f} m per tick (x{k_step:g} of the reference 0.3 m/s at 7 Hz), label length {m.label_length:.2f} m "
+        f"(x{k_scene:g} of {REFERENCE_LABEL_LENGTH_M} m), odometry noise {m.sigma_v:.4f} m/s, {m.sigma_w:.4f} rad/s "
+        f"(x{rough_v:g}, x{rough_w:g} of {REFERENCE_NOISE})." + revisit_text + "\n"
+        f"Derived: RatSLAM cell_size_m {rs_new.cell_size_m:g} ({cpt:.2f} cells per tick), pc_trans_gain "
+        f"{rs_new.pc_trans_gain:g}"
+        + (
+            f", re-entry fusion (reentry_position_sigma_m {rs_new.reentry_position_sigma_m:.3f}, "
+            f"reentry_heading_sigma_deg {rs_new.reentry_heading_sigma_deg:.2f}, odom_speed_noise "
+            f"{rs_new.odom_speed_noise:g}, odom_heading_noise {rs_new.odom_heading_noise:g})"
+            if rs_new.reentry_position_sigma_m > 0
+            else ""
+        )
+        + f"; GTSAM keyframe_distance {pg_new.keyframe_distance:g} m, closure_sigma_xy "
+        f"{pg_new.closure_sigma_xy:.3f} m, closure_min_travel {pg_new.closure_min_travel:g} m, odom_sigma_v "
+        f"{pg_new.odom_sigma_v:g}, odom_sigma_w {pg_new.odom_sigma_w:g}"
+        + (" (the defaults)" if rs_new == rs and pg_new == pg else "")
+        + "."
+    )
     return rs_new, pg_new, text

@@ -58,8 +58,9 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def screenshot(rrd_path, png_path, *, tick: int | None = None, size: str = "1600x900",
-               timeout: float = 180.0, settle: float = 2.0) -> dict:
+def screenshot(
+    rrd_path, png_path, *, tick: int | None = None, size: str = "1600x900", timeout: float = 180.0, settle: float = 2.0
+) -> dict:
     """Render ``rrd_path`` in the headless viewer and save ``png_path``.
 
     ``tick``: time cursor on the ``tick`` timeline (None: the last tick); ``size``: viewer size in
@@ -75,10 +76,15 @@ def screenshot(rrd_path, png_path, *, tick: int | None = None, size: str = "1600
     _check_vulkan()
     exe = _rerun_executable()
     port = _free_port()
-    log = tempfile.TemporaryFile()
+    log = tempfile.TemporaryFile()  # noqa: SIM115 (closed in the finally below)
     # Own session: the ``rerun`` script starts the viewer binary as a child, both must be stopped.
-    proc = subprocess.Popen([exe, "--headless", "--hide-welcome-screen", "--port", str(port), "--window-size", size],
-                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True)
+    proc = subprocess.Popen(
+        [exe, "--headless", "--hide-welcome-screen", "--port", str(port), "--window-size", size],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        stdin=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     deadline = time.monotonic() + timeout
 
     def failed(what: str) -> ScreenshotError:
@@ -171,8 +177,10 @@ def main(argv=None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 1
     problems = [f"{name}: {r}" for name, rs in out["views"].items() for r in rs]
-    print(f"{out['png']} (tick {out['tick']}, {len(out['views'])} views"
-          + (f"; problems: {'; '.join(problems)})" if problems else ")"))
+    print(
+        f"{out['png']} (tick {out['tick']}, {len(out['views'])} views"
+        + (f"; problems: {'; '.join(problems)})" if problems else ")")
+    )
     return 0
 
 

@@ -25,9 +25,26 @@ from worlds.observation_log import atomic_write_text
 from .sweep_spec import AXES
 
 BREAKDOWN_ATE_M = 0.5
-COLUMNS = ("run_id", "world", "duration_s", "varied", *AXES, "seed", "system", "kind", "ate_online",
-           "ate_map", "ate_odometry", "closure_precision", "closure_recall", "nodes", "snaps", "wall_s",
-           "run_wall_s", "error")
+COLUMNS = (
+    "run_id",
+    "world",
+    "duration_s",
+    "varied",
+    *AXES,
+    "seed",
+    "system",
+    "kind",
+    "ate_online",
+    "ate_map",
+    "ate_odometry",
+    "closure_precision",
+    "closure_recall",
+    "nodes",
+    "snaps",
+    "wall_s",
+    "run_wall_s",
+    "error",
+)
 WALL_COLUMNS = ("wall_s", "run_wall_s")
 
 
@@ -52,15 +69,38 @@ def result_rows(tasks: list[dict], runs_dir: Path) -> list[dict]:
             continue
         result = json.loads(path.read_text())["result"]
         cond = task["condition"]
-        common = {"run_id": task["run_id"], "world": Path(str(task["world"])).stem, "duration_s": task["duration"],
-                  "varied": task["varied"], **{a: cond[a] for a in AXES}, "seed": task["seed"],
-                  "ate_odometry": result.get("ate_odometry"), "run_wall_s": result["wall_s"],
-                  "error": result["error"]}
+        common = {
+            "run_id": task["run_id"],
+            "world": Path(str(task["world"])).stem,
+            "duration_s": task["duration"],
+            "varied": task["varied"],
+            **{a: cond[a] for a in AXES},
+            "seed": task["seed"],
+            "ate_odometry": result.get("ate_odometry"),
+            "run_wall_s": result["wall_s"],
+            "error": result["error"],
+        }
         for system in task["systems"]:
             r = result["systems"].get(system["name"], {})
-            rows.append({**common, "system": system["name"], "kind": system["kind"],
-                         **{k: r.get(k) for k in ("ate_online", "ate_map", "closure_precision", "closure_recall",
-                                                  "nodes", "snaps", "wall_s")}})
+            rows.append(
+                {
+                    **common,
+                    "system": system["name"],
+                    "kind": system["kind"],
+                    **{
+                        k: r.get(k)
+                        for k in (
+                            "ate_online",
+                            "ate_map",
+                            "closure_precision",
+                            "closure_recall",
+                            "nodes",
+                            "snaps",
+                            "wall_s",
+                        )
+                    },
+                }
+            )
     return rows
 
 
@@ -151,13 +191,15 @@ def plot_axis(rows: list[dict], axis: str, path: Path) -> Path:
     from worlds.plot import save_figure
 
     fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.0), sharey=True)
-    for ax, key, title in ((axes[0], "ate_map", "map (experience map / keyframes)"),
-                           (axes[1], "ate_online", "online estimate")):
+    for ax, key, title in (
+        (axes[0], "ate_map", "map (experience map / keyframes)"),
+        (axes[1], "ate_online", "online estimate"),
+    ):
         for system, (x, med, lo, hi) in curves(rows, axis, key).items():
             if system == "odometry":
                 ax.plot(x, med, "k--", lw=1.0, label="odometry")
                 continue
-            line, = ax.plot(x, med, "o-", lw=1.2, ms=3, label=system)
+            (line,) = ax.plot(x, med, "o-", lw=1.2, ms=3, label=system)
             ax.fill_between(x, lo, hi, color=line.get_color(), alpha=0.15)
         ax.axhline(BREAKDOWN_ATE_M, color="0.6", lw=0.6, ls=":")
         ax.set_yscale("log")
@@ -179,16 +221,24 @@ def render(rows: list[dict], title: str, panels: list[str]) -> str:
     systems = list(dict.fromkeys(r["system"] for r in rows))
     seeds = sorted({int(r["seed"]) for r in rows})
     worlds = sorted({r["world"] for r in rows})
-    lines = [f"# Sweep: {title}", "",
-             f"{len(runs)} runs ({len(failed)} failed) on {', '.join(worlds)}, "
-             f"{len(seeds)} seeds, systems: {', '.join(systems)}. One run simulates its condition once and "
-             "runs every system on that stream. Map ATE: the experience map (RatSLAM) or the pose graph's "
-             "keyframes, SE(2)-aligned to ground truth.", ""]
+    lines = [
+        f"# Sweep: {title}",
+        "",
+        f"{len(runs)} runs ({len(failed)} failed) on {', '.join(worlds)}, "
+        f"{len(seeds)} seeds, systems: {', '.join(systems)}. One run simulates its condition once and "
+        "runs every system on that stream. Map ATE: the experience map (RatSLAM) or the pose graph's "
+        "keyframes, SE(2)-aligned to ground truth.",
+        "",
+    ]
     bd = breakdown(rows)
     if bd:
         axes = list(dict.fromkeys(a for per in bd.values() for a in per))
-        lines += [f"## Breakdown: largest value with median map ATE <= {BREAKDOWN_ATE_M} m", "",
-                  "| system | " + " | ".join(axes) + " |", "|---|" + "---|" * len(axes)]
+        lines += [
+            f"## Breakdown: largest value with median map ATE <= {BREAKDOWN_ATE_M} m",
+            "",
+            "| system | " + " | ".join(axes) + " |",
+            "|---|" + "---|" * len(axes),
+        ]
         lines += [f"| {s} | " + " | ".join(_fmt(bd[s].get(a)) for a in axes) + " |" for s in bd]
         lines.append("")
     if panels:
@@ -197,8 +247,10 @@ def render(rows: list[dict], title: str, panels: list[str]) -> str:
     if grid:
         lines += ["## Median map ATE per condition (m)", ""]
         axes = [a for a in AXES if len({r[a] for r in grid}) > 1]
-        lines += ["| " + " | ".join(axes) + " | " + " | ".join(systems) + " |",
-                  "|" + "---|" * (len(axes) + len(systems))]
+        lines += [
+            "| " + " | ".join(axes) + " | " + " | ".join(systems) + " |",
+            "|" + "---|" * (len(axes) + len(systems)),
+        ]
         for cond in dict.fromkeys(tuple(r[a] for a in axes) for r in grid):
             mine = [r for r in grid if tuple(r[a] for a in axes) == cond]
             cells = []
@@ -208,14 +260,19 @@ def render(rows: list[dict], title: str, panels: list[str]) -> str:
             lines.append("| " + " | ".join(f"{v:g}" for v in cond) + " | " + " | ".join(cells) + " |")
         lines.append("")
     if failed:
-        lines += ["## Failed runs", ""] + [f"- `{r['run_id']}` seed {int(r['seed'])}: {r['error']}"
-                                            for r in failed[:20]] + [""]
+        lines += (
+            ["## Failed runs", ""]
+            + [f"- `{r['run_id']}` seed {int(r['seed'])}: {r['error']}" for r in failed[:20]]
+            + [""]
+        )
     return "\n".join(lines)
 
 
 def write_report_from_rows(out: Path, rows: list[dict], title: str) -> Path:
-    panels = [plot_axis(rows, axis, out / f"curve_{axis}.png").name
-              for axis in dict.fromkeys(r["varied"] for r in rows if r["varied"] in AXES)]
+    panels = [
+        plot_axis(rows, axis, out / f"curve_{axis}.png").name
+        for axis in dict.fromkeys(r["varied"] for r in rows if r["varied"] in AXES)
+    ]
     return atomic_write_text(out / "report.md", render(rows, title, panels))
 
 

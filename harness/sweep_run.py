@@ -28,16 +28,23 @@ from .sweep_spec import AXES, SweepSpec, system_config
 from .sweep_task import run_one
 
 # BLAS and compiled-kernel threads per worker: every worker is one process on one core.
-_ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-               "NUMBA_NUM_THREADS": "1"}
+_ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 
 
 # ---------------------------------------------------------------------------- tasks
 
 # What a run's result depends on: the SLAM packages, the simulator and worlds, and the harness
 # modules that run a stream and measure it (not the figures, reports or CLI).
-_RESULT_SOURCES = ("ratslam/*.py", "baselines/*.py", "worlds/*.py", "worlds/*.toml", "harness/sweep_task.py",
-                   "harness/metrics.py", "harness/evaluate.py", "harness/runner.py")
+_RESULT_SOURCES = (
+    "ratslam/*.py",
+    "baselines/*.py",
+    "worlds/*.py",
+    "worlds/*.toml",
+    "harness/sweep_task.py",
+    "harness/metrics.py",
+    "harness/evaluate.py",
+    "harness/runner.py",
+)
 
 
 def code_version() -> str:
@@ -59,10 +66,15 @@ def run_tasks(spec: SweepSpec, code: str) -> list[dict]:
         # the full condition: a value repeated on two axes' curves (e.g. the base) runs once
         condition = {a: float(varied.get(a, base[a])) for a in AXES}
         task = {
-            "world": spec.world, "duration": spec.duration, "lookalikes": spec.lookalikes,
-            "condition": condition, "seed": seed,
-            "systems": [{"name": s.name, "kind": s.kind,
-                         "config": dataclasses.asdict(system_config(s, condition))} for s in spec.systems],
+            "world": spec.world,
+            "duration": spec.duration,
+            "lookalikes": spec.lookalikes,
+            "condition": condition,
+            "seed": seed,
+            "systems": [
+                {"name": s.name, "kind": s.kind, "config": dataclasses.asdict(system_config(s, condition))}
+                for s in spec.systems
+            ],
             "code": code,
         }
         blob = json.dumps(task, sort_keys=True, allow_nan=True).encode()
@@ -73,6 +85,7 @@ def run_tasks(spec: SweepSpec, code: str) -> list[dict]:
 
 
 # ---------------------------------------------------------------------------- executors
+
 
 class SchedulerError(RuntimeError):
     """The Dask cluster cannot be used (one line: address and problem)."""
@@ -102,8 +115,7 @@ class LocalExecutor(Executor):
         saved = {k: os.environ.get(k) for k in _ONE_THREAD}
         os.environ.update(_ONE_THREAD)  # inherited by the spawned workers, which import numpy afresh
         try:
-            self._pool = ProcessPoolExecutor(max_workers=self.workers,
-                                             mp_context=multiprocessing.get_context("spawn"))
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
             self._pool.submit(int, 0).result()  # start the workers while the environment is set
         finally:
             for k, v in saved.items():
@@ -149,8 +161,9 @@ class DaskExecutor(Executor):
     def run(self, fn, tasks):
         from distributed import as_completed
 
-        futures = {self._client.submit(fn, task, key=f"ratslam-run-{task['run_id']}", pure=False): task
-                   for task in tasks}
+        futures = {
+            self._client.submit(fn, task, key=f"ratslam-run-{task['run_id']}", pure=False): task for task in tasks
+        }
         for future in as_completed(futures):
             yield futures[future], future.result()
 
@@ -163,12 +176,14 @@ class DaskExecutor(Executor):
 
 # ---------------------------------------------------------------------------- the driver
 
+
 def _eta(seconds: float) -> str:
     if not math.isfinite(seconds):
         return "?"
     seconds = int(round(seconds))
-    return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m" if seconds >= 3600 else \
-        f"{seconds // 60}m{seconds % 60:02d}s"
+    return (
+        f"{seconds // 3600}h{seconds % 3600 // 60:02d}m" if seconds >= 3600 else f"{seconds // 60}m{seconds % 60:02d}s"
+    )
 
 
 def _write_result(runs_dir: Path, task: dict, result: dict) -> None:
@@ -190,8 +205,13 @@ def completed(runs_dir: Path, tasks: Iterable[dict]) -> set[str]:
     return {t["run_id"] for t in tasks if (runs_dir / t["run_id"] / "result.json").is_file()}
 
 
-def run_sweep(spec: SweepSpec, out, workers: int | None = None, scheduler: str | None = None,
-              log: Callable[[str], None] | None = None) -> Path:
+def run_sweep(
+    spec: SweepSpec,
+    out,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    log: Callable[[str], None] | None = None,
+) -> Path:
     """Run (or resume) ``spec`` into directory ``out``; write ``runs.csv`` and ``report.md``."""
     from .sweep_report import write_sweep_report
 
@@ -215,10 +235,15 @@ def run_sweep(spec: SweepSpec, out, workers: int | None = None, scheduler: str |
     for stale in runs_dir.glob(".*.partial-*"):  # left by a killed sweep
         shutil.rmtree(stale, ignore_errors=True)
     atomic_write_text(out / "sweep.toml", Path(spec.path).read_text())  # what the runs were made from
-    log(f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "
-        f"{len(spec.systems)} systems each")
-    failures = sum(1 for t in unique if t["run_id"] in done
-                   and json.loads((runs_dir / t["run_id"] / "result.json").read_text())["result"]["error"])
+    log(
+        f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "
+        f"{len(spec.systems)} systems each"
+    )
+    failures = sum(
+        1
+        for t in unique
+        if t["run_id"] in done and json.loads((runs_dir / t["run_id"] / "result.json").read_text())["result"]["error"]
+    )
     if executor is not None:
         start, finished = time.perf_counter(), 0
         try:
@@ -229,11 +254,16 @@ def run_sweep(spec: SweepSpec, out, workers: int | None = None, scheduler: str |
                 failures += bool(result["error"])
                 elapsed = time.perf_counter() - start
                 eta = elapsed / finished * (len(todo) - finished)
-                cond = f"{task['varied']}={task['condition'][task['varied']]:g}" if task["varied"] in AXES \
+                cond = (
+                    f"{task['varied']}={task['condition'][task['varied']]:g}"
+                    if task["varied"] in AXES
                     else " ".join(f"{k}={v:g}" for k, v in task["condition"].items())
+                )
                 status = f"FAILED ({result['error']})" if result["error"] else f"{result['wall_s']:.1f} s"
-                log(f"[{len(done) + finished}/{total}] {cond} seed={task['seed']}: {status}; "
-                    f"failures {failures}; ETA {_eta(eta)}")
+                log(
+                    f"[{len(done) + finished}/{total}] {cond} seed={task['seed']}: {status}; "
+                    f"failures {failures}; ETA {_eta(eta)}"
+                )
         except BaseException:
             executor.abort()  # interrupted: completed runs are on disk, the rest is recomputed on resume
             raise

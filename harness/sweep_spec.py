@@ -60,14 +60,17 @@ class Axis:
     meaning: str
 
 
-AXES = {a.name: a for a in (
-    Axis("fp_rate", 0.0, 1.0, "false-positive scene reports per tick"),
-    Axis("alias_rate", 0.0, 1.0, "fraction of scene cells sharing their number with a distant cell"),
-    Axis("blank_rate", 0.0, 1.0, "fraction of scene cells showing nothing recognisable"),
-    Axis("odometric_bias", -90.0, 90.0, "yaw-rate bias in the odometry seen by every system (deg/s)"),
-    Axis("pi_bias", -90.0, 90.0, "yaw-rate bias in RatSLAM's pose-cell path integration only (deg/s)"),
-    Axis("odometry_noise_scale", 0.0, 100.0, "factor on the world's odometry noise (speed and yaw rate)"),
-)}
+AXES = {
+    a.name: a
+    for a in (
+        Axis("fp_rate", 0.0, 1.0, "false-positive scene reports per tick"),
+        Axis("alias_rate", 0.0, 1.0, "fraction of scene cells sharing their number with a distant cell"),
+        Axis("blank_rate", 0.0, 1.0, "fraction of scene cells showing nothing recognisable"),
+        Axis("odometric_bias", -90.0, 90.0, "yaw-rate bias in the odometry seen by every system (deg/s)"),
+        Axis("pi_bias", -90.0, 90.0, "yaw-rate bias in RatSLAM's pose-cell path integration only (deg/s)"),
+        Axis("odometry_noise_scale", 0.0, 100.0, "factor on the world's odometry noise (speed and yaw rate)"),
+    )
+}
 
 
 class SweepSpecError(ValueError):
@@ -102,9 +105,14 @@ class SweepSpec:
     def base_values(self) -> dict:
         """Each axis's value at the base condition (the world's own, or the figure's rate)."""
         world = load_world(self.world)
-        return {"fp_rate": world.scenes.false_positive_rate if self.base_fp_rate is None else self.base_fp_rate,
-                "alias_rate": world.scenes.alias_rate, "blank_rate": world.scenes.blank_rate,
-                "odometric_bias": world.odometry.bias_deg_s, "pi_bias": 0.0, "odometry_noise_scale": 1.0}
+        return {
+            "fp_rate": world.scenes.false_positive_rate if self.base_fp_rate is None else self.base_fp_rate,
+            "alias_rate": world.scenes.alias_rate,
+            "blank_rate": world.scenes.blank_rate,
+            "odometric_bias": world.odometry.bias_deg_s,
+            "pi_bias": 0.0,
+            "odometry_noise_scale": 1.0,
+        }
 
     def conditions(self) -> list[dict]:
         """Every condition to run: {axis: value} for the varied axes (empty dict = the base)."""
@@ -155,7 +163,7 @@ def _read_base(path: Path, raw: dict):
         world = base["world"]
         if not isinstance(world, str):
             _fail(path, "[base] world", f"expected a world name or file, got {world!r}")
-        candidate = (path.parent / world)
+        candidate = path.parent / world
         if world.endswith(".toml") and candidate.is_file():
             world = str(candidate)
     try:
@@ -203,8 +211,11 @@ def _read_seeds(path: Path, raw: dict) -> tuple[int, ...]:
             _fail(path, "[seeds] count", f"expected an integer >= 1, got {n!r}")
         return tuple(range(n))
     values = seeds["list"]
-    if (not isinstance(values, list) or not values
-            or any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in values)):
+    if (
+        not isinstance(values, list)
+        or not values
+        or any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in values)
+    ):
         _fail(path, "[seeds] list", "expected a non-empty list of non-negative integers")
     if len(set(values)) != len(values):
         _fail(path, "[seeds] list", "seeds repeat")
@@ -214,7 +225,7 @@ def _read_seeds(path: Path, raw: dict) -> tuple[int, ...]:
 def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
     systems = raw.get("systems")
     if not isinstance(systems, dict) or not systems:
-        _fail(path, "[systems]", "missing or empty (add e.g. [systems.ratslam] system = \"ratslam\")")
+        _fail(path, "[systems]", 'missing or empty (add e.g. [systems.ratslam] system = "ratslam")')
     out = []
     for name, table in systems.items():
         where = f"[systems.{name}]"
@@ -222,7 +233,7 @@ def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
             _fail(path, where, "expected a table")
         kind = table.get("system")
         if kind not in SYSTEM_CONFIGS:
-            _fail(path, f"{where} system", f"expected \"ratslam\" or \"gtsam\", got {kind!r}")
+            _fail(path, f"{where} system", f'expected "ratslam" or "gtsam", got {kind!r}')
         cls = SYSTEM_CONFIGS[kind]
         types_ = _field_types(cls)
         fields = {}
@@ -251,8 +262,11 @@ def read_sweep_spec(path) -> SweepSpec:
     raw = read_toml(path, SweepSpecError)
     unknown = set(raw) - {"design", "max_runs", "base", "axes", "seeds", "systems"}
     if unknown:
-        _fail(path, sorted(unknown)[0], "unknown key or table (expected design, max_runs, [base], [axes], "
-                                        "[seeds], [systems.NAME])")
+        _fail(
+            path,
+            sorted(unknown)[0],
+            "unknown key or table (expected design, max_runs, [base], [axes], [seeds], [systems.NAME])",
+        )
     design = raw.get("design", DESIGNS[0])
     if design not in DESIGNS:
         _fail(path, "design", f"expected one of {', '.join(DESIGNS)}, got {design!r}")
@@ -265,8 +279,19 @@ def read_sweep_spec(path) -> SweepSpec:
     systems = _read_systems(path, raw, grid)
     if "pi_bias" in axes and not any(s.kind == "ratslam" for s in systems):
         _fail(path, "[axes] pi_bias", "varies RatSLAM's path integration, but no RatSLAM system is configured")
-    spec = SweepSpec(path=str(path), world=world, duration=duration, base_fp_rate=fp, grid=grid, design=design,
-                     axes=axes, seeds=seeds, systems=systems, max_runs=max_runs, lookalikes=lookalikes)
+    spec = SweepSpec(
+        path=str(path),
+        world=world,
+        duration=duration,
+        base_fp_rate=fp,
+        grid=grid,
+        design=design,
+        axes=axes,
+        seeds=seeds,
+        systems=systems,
+        max_runs=max_runs,
+        lookalikes=lookalikes,
+    )
     if not spec.runs():
         _fail(path, "[axes]", "the spec expands to zero runs")
     return spec

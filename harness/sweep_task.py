@@ -51,8 +51,11 @@ def _run_system(kind: str, config_fields: dict, log, gt: np.ndarray) -> dict:
 
     from .evaluate import CLOSURE_TRUE_DISTANCE, _closure_quality
 
-    system = (RatSLAM(RatSLAMConfig(**config_fields)) if kind == "ratslam"
-              else PoseGraphSLAM(PoseGraphConfig(**config_fields)))
+    system = (
+        RatSLAM(RatSLAMConfig(**config_fields))
+        if kind == "ratslam"
+        else PoseGraphSLAM(PoseGraphConfig(**config_fields))
+    )
     n = len(log)
     online = np.zeros((n, 3))
     snaps = 0
@@ -69,13 +72,23 @@ def _run_system(kind: str, config_fields: dict, log, gt: np.ndarray) -> dict:
     out = {"ate_online": _ate(online, gt), "wall_s": wall}
     if kind == "ratslam":
         ticks = system.experience_first_tick
-        out.update(ate_map=_ate(system.experience_poses, gt[ticks]), nodes=int(len(ticks)),
-                   snaps=int(snaps), closure_precision=None, closure_recall=None)
+        out.update(
+            ate_map=_ate(system.experience_poses, gt[ticks]),
+            nodes=int(len(ticks)),
+            snaps=int(snaps),
+            closure_precision=None,
+            closure_recall=None,
+        )
     else:
         ticks = system.keyframe_ticks
         lc = _closure_quality(system, gt, CLOSURE_TRUE_DISTANCE)
-        out.update(ate_map=_ate(system.keyframe_poses, gt[ticks]), nodes=int(len(ticks)), snaps=None,
-                   closure_precision=lc["precision"], closure_recall=lc["recall"])
+        out.update(
+            ate_map=_ate(system.keyframe_poses, gt[ticks]),
+            nodes=int(len(ticks)),
+            snaps=None,
+            closure_precision=lc["precision"],
+            closure_recall=lc["recall"],
+        )
     return out
 
 
@@ -91,14 +104,17 @@ def run_one(task: dict) -> dict:
         world, sim_args = condition_world(task["world"], task["condition"], task.get("lookalikes", True))
         log = simulate(world, duration=task["duration"], seed=task["seed"], **sim_args)
         gt = log.ground_truth()
-        systems = {s["name"]: {"kind": s["kind"], **_run_system(s["kind"], s["config"], log, gt)}
-                   for s in task["systems"]}
-        result = {"ate_odometry": _ate(dead_reckon(log), gt), "ticks": len(log), "systems": systems,
-                  "error": None}
-    except Exception as e:  # noqa: BLE001 - recorded, the sweep goes on
+        systems = {
+            s["name"]: {"kind": s["kind"], **_run_system(s["kind"], s["config"], log, gt)} for s in task["systems"]
+        }
+        result = {"ate_odometry": _ate(dead_reckon(log), gt), "ticks": len(log), "systems": systems, "error": None}
+    except Exception as e:
         where = traceback.extract_tb(e.__traceback__)[-1]
-        result = {"error": f"{type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''} "
-                           f"({Path(where.filename).name}:{where.lineno})", "systems": {}}
+        result = {
+            "error": f"{type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''} "
+            f"({Path(where.filename).name}:{where.lineno})",
+            "systems": {},
+        }
     result["wall_s"] = time.perf_counter() - start
     result["pid"] = os.getpid()
     return result

@@ -195,12 +195,21 @@ class RatSLAMConfig:
             value = getattr(self, name)
             if not isinstance(value, int) or value < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-        if 2 * max(self.excite_radius, self.inhibit_radius, self.peak_radius) + 1 > min(
-            self.nx, self.ny, self.n_theta
-        ):
+        if 2 * max(self.excite_radius, self.inhibit_radius, self.peak_radius) + 1 > min(self.nx, self.ny, self.n_theta):
             raise ValueError("excite_radius/inhibit_radius/peak_radius: kernel wider than the grid")
-        for name in ("cell_size_m", "pc_trans_gain", "excite_sigma", "excite_sigma_theta", "inhibit_sigma", "inhibit_sigma_theta", "r_inf", "theta_inf",
-                     "snap_cells", "view_learn_rate", "view_fatigue_rate"):
+        for name in (
+            "cell_size_m",
+            "pc_trans_gain",
+            "excite_sigma",
+            "excite_sigma_theta",
+            "inhibit_sigma",
+            "inhibit_sigma_theta",
+            "r_inf",
+            "theta_inf",
+            "snap_cells",
+            "view_learn_rate",
+            "view_fatigue_rate",
+        ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {value!r}")
@@ -231,7 +240,9 @@ class RatSLAMConfig:
         if (self.reentry_position_sigma_m > 0) != (self.reentry_heading_sigma_deg > 0):
             raise ValueError("reentry_position_sigma_m and reentry_heading_sigma_deg: both 0 (off) or both positive")
         if not isinstance(self.correction_iterations, int) or self.correction_iterations < 0:
-            raise ValueError(f"correction_iterations must be a non-negative integer, got {self.correction_iterations!r}")
+            raise ValueError(
+                f"correction_iterations must be a non-negative integer, got {self.correction_iterations!r}"
+            )
         if self.correction not in _CORRECTIONS:
             raise ValueError(f"correction must be one of {_CORRECTIONS}, got {self.correction!r}")
         if self.energy not in _ENERGIES:
@@ -247,6 +258,6 @@ class RatSLAMConfig:
         """Pose-cell grid shape (nx, ny, n_theta)."""
         return (self.nx, self.ny, self.n_theta)
 
-    def replace(self, **changes) -> "RatSLAMConfig":
+    def replace(self, **changes) -> RatSLAMConfig:
         """A copy with some fields changed (validated)."""
         return dataclasses.replace(self, **changes)

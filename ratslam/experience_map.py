@@ -102,11 +102,28 @@ class ExperienceMap:
     def __init__(self, config: RatSLAMConfig):
         self.config = config
         # map poses as separate x, y, θ columns: contiguous arrays for the per-tick correction
-        self._exp = _Growable({"x": ((), float), "y": ((), float), "th": ((), float),
-                               "cell": ((3,), float), "view": ((), np.int64),
-                               "first": ((), np.int64), "last": ((), np.int64), "degree": ((), float)})
-        self._link = _Growable({"from": ((), np.int64), "to": ((), np.int64), "d": ((), float),
-                                "theta": ((), float), "phi": ((), float), "dt": ((), float)})
+        self._exp = _Growable(
+            {
+                "x": ((), float),
+                "y": ((), float),
+                "th": ((), float),
+                "cell": ((3,), float),
+                "view": ((), np.int64),
+                "first": ((), np.int64),
+                "last": ((), np.int64),
+                "degree": ((), float),
+            }
+        )
+        self._link = _Growable(
+            {
+                "from": ((), np.int64),
+                "to": ((), np.int64),
+                "d": ((), float),
+                "theta": ((), float),
+                "phi": ((), float),
+                "dt": ((), float),
+            }
+        )
         self._by_view: dict[int, list[int]] = {}
         self._linked: set[tuple[int, int]] = set()
         self.current = -1
@@ -116,8 +133,13 @@ class ExperienceMap:
         # the map, in the map frame, grown by the odometry noise since the last re-entry
         self._fuse = config.reentry_position_sigma_m > 0.0
         self._cov = np.zeros((3, 3))
-        self._view_cov = np.diag([config.reentry_position_sigma_m ** 2, config.reentry_position_sigma_m ** 2,
-                                  math.radians(config.reentry_heading_sigma_deg) ** 2])
+        self._view_cov = np.diag(
+            [
+                config.reentry_position_sigma_m**2,
+                config.reentry_position_sigma_m**2,
+                math.radians(config.reentry_heading_sigma_deg) ** 2,
+            ]
+        )
         self._grid = np.array(config.shape, dtype=float)
         self._divisor_key = None
 
@@ -204,13 +226,13 @@ class ExperienceMap:
             ids = np.arange(self._exp.n)
         cells = self._exp.cols["cell"][ids]
         d = np.abs(cells - peak_cell)
-        d = np.minimum(d, self._grid - d)                                  # wrap-aware
-        r = np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2)                           # eq 3
-        e_xy = np.maximum(1.0 - r / cfg.r_inf, 0.0)                        # eq 2
-        e_th = np.maximum(1.0 - d[:, 2] / cfg.theta_inf, 0.0)              # eqs 4-5
-        e_v = (self._exp.cols["view"][ids] == view).astype(float)          # eqs 6-8
+        d = np.minimum(d, self._grid - d)  # wrap-aware
+        r = np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2)  # eq 3
+        e_xy = np.maximum(1.0 - r / cfg.r_inf, 0.0)  # eq 2
+        e_th = np.maximum(1.0 - d[:, 2] / cfg.theta_inf, 0.0)  # eqs 4-5
+        e_v = (self._exp.cols["view"][ids] == view).astype(float)  # eqs 6-8
         if cfg.energy == "sum":
-            return e_v * (e_xy + e_th)                                     # eq 9
+            return e_v * (e_xy + e_th)  # eq 9
         return e_v * e_xy * e_th
 
     # ------------------------------------------------------------------ eqs 10-11
@@ -241,8 +263,16 @@ class ExperienceMap:
         if i == j or key in self._linked:
             return False
         ax, ay, aphi, at = dx, dy, dphi, dt
-        self._link.append(**{"from": i, "to": j, "d": math.hypot(ax, ay), "theta": math.atan2(ay, ax),
-                             "phi": _wrap_scalar(aphi), "dt": at})
+        self._link.append(
+            **{
+                "from": i,
+                "to": j,
+                "d": math.hypot(ax, ay),
+                "theta": math.atan2(ay, ax),
+                "phi": _wrap_scalar(aphi),
+                "dt": at,
+            }
+        )
         self._linked.add(key)
         deg = self._exp.cols["degree"]
         deg[i] += 1.0
@@ -261,7 +291,7 @@ class ExperienceMap:
             e = self.energy(peak_cell, view, ids_arr)
             k = int(np.argmax(e))
             best, best_e = int(ids_arr[k]), float(e[k])
-        if best_e <= 0.0:                                                   # eqs 10-11
+        if best_e <= 0.0:  # eqs 10-11
             j = self._new_experience(tick, peak_cell, view)
             if self.current >= 0:
                 self._add_link(self.current, j)
@@ -301,7 +331,7 @@ class ExperienceMap:
         cfg = self.config
         cell = self._exp.cols["cell"][j]
         d = np.asarray(peak_cell, dtype=float) - cell
-        d -= self._grid * np.round(d / self._grid)                      # wrap-aware
+        d -= self._grid * np.round(d / self._grid)  # wrap-aware
         dx, dy = d[0] * cfg.cell_size_m, d[1] * cfg.cell_size_m
         c, s = math.cos(cell[2] * cfg.theta_cell_rad), math.sin(cell[2] * cfg.theta_cell_rad)
         return (c * dx + s * dy, -s * dx + c * dy, float(d[2]) * cfg.theta_cell_rad)
@@ -350,8 +380,21 @@ class ExperienceMap:
             return
         cfg = self.config
         ex, lk = self._exp.cols, self._link.cols
-        map_kernels.correct(ex["x"], ex["y"], ex["th"], n, lk["from"], lk["to"], lk["d"], lk["theta"],
-                            lk["phi"], m, self._inverse_degree(), cfg.alpha_d, cfg.alpha_theta)
+        map_kernels.correct(
+            ex["x"],
+            ex["y"],
+            ex["th"],
+            n,
+            lk["from"],
+            lk["to"],
+            lk["d"],
+            lk["theta"],
+            lk["phi"],
+            m,
+            self._inverse_degree(),
+            cfg.alpha_d,
+            cfg.alpha_theta,
+        )
 
     # ------------------------------------------------------------------ state i/o
     def get_state(self) -> dict:

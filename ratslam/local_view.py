@@ -31,15 +31,15 @@ class LocalView:
     def __init__(self, config: RatSLAMConfig):
         self.config = config
         self._scene_to_cell: dict[int, int] = {}
-        self.scenes = np.zeros(0, dtype=np.int64)       # scene number of each view cell
-        self.fatigue = np.zeros(0)                     # per view cell
+        self.scenes = np.zeros(0, dtype=np.int64)  # scene number of each view cell
+        self.fatigue = np.zeros(0)  # per view cell
         # associations, one sorted-by-linear-index entry set per view cell
         self._assoc_lin: list[np.ndarray] = []
         self._assoc_w: list[np.ndarray] = []
         self._assoc_tick: list[np.ndarray] = []
-        self.current = -1                              # active view cell (-1: none)
-        self.activity = 0.0                            # V of the active view cell
-        self.injected = 0.0                            # total energy injected this tick
+        self.current = -1  # active view cell (-1: none)
+        self.activity = 0.0  # V of the active view cell
+        self.injected = 0.0  # total energy injected this tick
         n = config.shape
         self._strides = np.array([n[1] * n[2], n[2], 1], dtype=np.int64)
 
@@ -91,7 +91,8 @@ class LocalView:
             lin, p = pose_cells.cells_at_least(cfg.view_learn_threshold)
             w = (cfg.view_learn_rate * self.activity) * p
             self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v] = merge_associations(
-                self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v], lin, w, tick)
+                self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v], lin, w, tick
+            )
         if self.fatigue.size:
             active_fatigue = float(self.fatigue[v]) if v >= 0 else 0.0
             self.fatigue -= cfg.view_fatigue_recovery
@@ -102,19 +103,26 @@ class LocalView:
     def associations(self, view_cell: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Associations of one view cell: cells (k, 3) as (x', y', θ'), weights (k,), learnt ticks (k,)."""
         lin = self._assoc_lin[view_cell]
-        cells = np.stack((lin // self._strides[0], (lin // self._strides[1]) % self.config.ny,
-                          lin % self.config.n_theta), axis=1)
+        cells = np.stack(
+            (lin // self._strides[0], (lin // self._strides[1]) % self.config.ny, lin % self.config.n_theta), axis=1
+        )
         return cells, self._assoc_w[view_cell].copy(), self._assoc_tick[view_cell].copy()
 
     # ------------------------------------------------------------------ state i/o
     def get_state(self) -> dict:
         """Arrays that fully describe the view cells (for save/load)."""
         counts = np.array([a.size for a in self._assoc_lin], dtype=np.int64)
-        cat = (lambda parts, dt: np.concatenate(parts) if parts else np.zeros(0, dtype=dt))
+
+        def cat(parts, dt):
+            return np.concatenate(parts) if parts else np.zeros(0, dtype=dt)
+
         return {
-            "lv_scenes": self.scenes.copy(), "lv_fatigue": self.fatigue.copy(),
-            "lv_counts": counts, "lv_lin": cat(self._assoc_lin, np.int64),
-            "lv_w": cat(self._assoc_w, float), "lv_tick": cat(self._assoc_tick, np.int64),
+            "lv_scenes": self.scenes.copy(),
+            "lv_fatigue": self.fatigue.copy(),
+            "lv_counts": counts,
+            "lv_lin": cat(self._assoc_lin, np.int64),
+            "lv_w": cat(self._assoc_w, float),
+            "lv_tick": cat(self._assoc_tick, np.int64),
             "lv_current": np.array([self.current], dtype=np.int64),
             "lv_activity": np.array([self.activity, self.injected]),
         }
@@ -127,6 +135,8 @@ class LocalView:
         bounds = np.concatenate(([0], np.cumsum(s["lv_counts"])))
         self._assoc_lin = [np.asarray(s["lv_lin"][a:b], dtype=np.int64).copy() for a, b in zip(bounds[:-1], bounds[1:])]
         self._assoc_w = [np.asarray(s["lv_w"][a:b], dtype=float).copy() for a, b in zip(bounds[:-1], bounds[1:])]
-        self._assoc_tick = [np.asarray(s["lv_tick"][a:b], dtype=np.int64).copy() for a, b in zip(bounds[:-1], bounds[1:])]
+        self._assoc_tick = [
+            np.asarray(s["lv_tick"][a:b], dtype=np.int64).copy() for a, b in zip(bounds[:-1], bounds[1:])
+        ]
         self.current = int(s["lv_current"][0])
         self.activity, self.injected = (float(x) for x in s["lv_activity"])

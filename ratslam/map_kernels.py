@@ -37,12 +37,12 @@ def correct(x, y, th, n, frm, to, d, theta, phi, m, inv_degree, alpha_d, alpha_t
         rx[k] = x[j] - x[i] - d[k] * np.cos(ang)
         ry[k] = y[j] - y[i] - d[k] * np.sin(ang)
         rt[k] = _wrap(th[j] - th[i] - phi[k])
-    for k in range(m):                 # + at the link's start (eqs 12-14, sums over j) ...
+    for k in range(m):  # + at the link's start (eqs 12-14, sums over j) ...
         i = frm[k]
         dx[i] += rx[k]
         dy[i] += ry[k]
         dt[i] += rt[k]
-    for k in range(m):                 # ... - at its end (the sums over k)
+    for k in range(m):  # ... - at its end (the sums over k)
         j = to[k]
         dx[j] -= rx[k]
         dy[j] -= ry[k]

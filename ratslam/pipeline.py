@@ -39,8 +39,8 @@ class RatSLAM:
         self._snapped = False
         self._bias = math.radians(self._config.pi_bias_deg_s)
         self._grid = np.array(self._config.shape, dtype=float)
-        self._last_scene, self._scene_run = -1, 0   # consecutive ticks of the current scene
-        self._last_snap = -(1 << 62)                 # step index of the latest snap
+        self._last_scene, self._scene_run = -1, 0  # consecutive ticks of the current scene
+        self._last_snap = -(1 << 62)  # step index of the latest snap
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -55,7 +55,7 @@ class RatSLAM:
         self.local_view.learn(k, pc)
         new_peak = pc.peak
         d = np.abs(new_peak - old_peak)
-        d = np.minimum(d, self._grid - d)                     # wrap-aware jump in cells
+        d = np.minimum(d, self._grid - d)  # wrap-aware jump in cells
         self._snapped = bool(math.sqrt(float(d @ d)) > self._config.snap_cells)
         if scene_id == self._last_scene:
             self._scene_run += 1
@@ -67,7 +67,7 @@ class RatSLAM:
         if self._snapped:
             self._last_snap = k
         if k - self._last_snap < self._config.snap_settle_ticks:
-            confirmed = -1                                    # the peak has not settled yet
+            confirmed = -1  # the peak has not settled yet
         em.update(k, new_peak, confirmed)
         for _ in range(self._config.correction_iterations):
             em.correct()
@@ -174,22 +174,25 @@ class RatSLAM:
         arrays.update(self.pose_cells.get_state())
         arrays.update(self.local_view.get_state())
         arrays.update(self.experience_map.get_state())
-        arrays["rs_tick"] = np.array([self._tick, int(self._snapped), self._last_scene, self._scene_run,
-                                      self._last_snap], dtype=np.int64)
+        arrays["rs_tick"] = np.array(
+            [self._tick, int(self._snapped), self._last_scene, self._scene_run, self._last_snap], dtype=np.int64
+        )
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
             np.savez(fh, **arrays)
 
     @classmethod
-    def load(cls, path) -> "RatSLAM":
+    def load(cls, path) -> RatSLAM:
         """Restore a system written by :meth:`save`; stepping it continues bit-identically."""
         with np.load(Path(path)) as data:
             s = {k: data[k] for k in data.files}
         meta = json.loads(bytes(s["meta_json"]).decode())
         if meta.get("format") != _FORMAT:
-            raise ValueError(f"{path}: not a RatSLAM state file of this version "
-                             f"(format {meta.get('format')!r}, expected {_FORMAT!r})")
+            raise ValueError(
+                f"{path}: not a RatSLAM state file of this version "
+                f"(format {meta.get('format')!r}, expected {_FORMAT!r})"
+            )
         obj = cls(RatSLAMConfig(**meta["config"]))
         obj.pose_cells.set_state(s)
         obj.local_view.set_state(s)

@@ -69,9 +69,9 @@ def op_mid(inp, off, kw, lout, n):
             k = kw[p, runs[r, 0]]
             delta, i0, i1 = runs[r, 1], runs[r, 2], runs[r, 3]
             cnt = (i1 - i0) * c_len
-            dst = flat_out[a, (i0 + delta) * c_len:(i0 + delta) * c_len + cnt]
-            src = flat_in[a, i0 * c_len:i0 * c_len + cnt]
-            for q in range(cnt):            # row views + range index: vectorised
+            dst = flat_out[a, (i0 + delta) * c_len : (i0 + delta) * c_len + cnt]
+            src = flat_in[a, i0 * c_len : i0 * c_len + cnt]
+            for q in range(cnt):  # row views + range index: vectorised
                 dst[q] += k * src[q]
     return out
 
@@ -92,7 +92,7 @@ def op_last(inp, off, kw, lout, n):
             k = kw[p, runs[r, 0]]
             delta, i0, i1 = runs[r, 1], runs[r, 2], runs[r, 3]
             for b in range(b_len):
-                dst = out[a, b, i0 + delta:i1 + delta]
+                dst = out[a, b, i0 + delta : i1 + delta]
                 src = inp[a, b, i0:i1]
                 for q in range(i1 - i0):
                     dst[q] += k * src[q]
@@ -158,7 +158,7 @@ def inhibit_clip_crop(exc, taps0, taps1, taps2, off_within, weight, global_inh, 
     qy = np.zeros(ny, dtype=np.bool_)
     for t in range(nt):
         for x in range(nx):
-            e_row = exc[t0 + t, x0 + x, y0:y0 + ny]
+            e_row = exc[t0 + t, x0 + x, y0 : y0 + ny]
             i_row = inh[t, x]
             a_row = act[t, x]
             row_any = False
@@ -218,7 +218,7 @@ def cover_arc(p, start, n):
             if gap > best_gap:
                 best_gap, best_next = gap, j
             prev = i
-    if best_gap == 1:                       # every cell occupied
+    if best_gap == 1:  # every cell occupied
         return 0, n
     return best_next, n - best_gap + 1
 
@@ -239,17 +239,17 @@ def crop(act, pt, px, py, start, n):
     o0 = (s0 - start[0]) % n[0]
     o1 = (s1 - start[1]) % n[1]
     o2 = (s2 - start[2]) % n[2]
-    lt, lx, ly = act.shape
+    ly = act.shape[2]
     out = np.empty((l0, l1, l2))
     total = 0.0
-    contiguous = o2 + l2 <= ly                   # the y range does not wrap round the old box
+    contiguous = o2 + l2 <= ly  # the y range does not wrap round the old box
     for t in range(l0):
         st = (o0 + t) % n[0]
         for x in range(l1):
             sx = (o1 + x) % n[1]
             dst = out[t, x]
             if contiguous:
-                src = act[st, sx, o2:o2 + l2]
+                src = act[st, sx, o2 : o2 + l2]
                 for y in range(l2):
                     dst[y] = src[y]
                     total += src[y]
@@ -324,8 +324,9 @@ def excite(act, taps0, taps1, taps2, off, n):
 
 
 @njit(cache=True)
-def network_box(act, start, n, exc0, exc1, exc2, inh0, inh1, inh2, off_spread, off_within,
-                r_exc, inhibit_weight, global_inhibition):
+def network_box(
+    act, start, n, exc0, exc1, exc2, inh0, inh1, inh2, off_spread, off_within, r_exc, inhibit_weight, global_inhibition
+):
     """One attractor iteration of one box, before normalisation: local excitation (the box grows
     by ``r_exc``), local inhibition within that box, global inhibition, clip at zero, crop.
     Returns (new start, activity, mass); the activity is (0, 0, 0) if nothing survived."""
@@ -397,7 +398,7 @@ def refine_peak(cg, sums, rad, n):
             s += sums[a, k] * np.sin(ang)
             c += sums[a, k] * np.cos(ang)
         p = (cg[a] + np.arctan2(s, c) * n[a] / (2.0 * np.pi)) % n[a]
-        peak[a] = 0.0 if p >= n[a] else p           # (-tiny) % n rounds to n
+        peak[a] = 0.0 if p >= n[a] else p  # (-tiny) % n rounds to n
     return peak
 
 

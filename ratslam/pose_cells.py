@@ -40,8 +40,10 @@ def axis_kernels(config: RatSLAMConfig) -> tuple[tuple, tuple]:
     """Excitation and inhibition kernels per axis (θ', x', y'): heading has its own widths."""
     k_exc = gaussian_kernel(config.excite_sigma, config.excite_radius)
     k_inh = gaussian_kernel(config.inhibit_sigma, config.inhibit_radius)
-    return ((gaussian_kernel(config.excite_sigma_theta, config.excite_radius), k_exc, k_exc),
-            (gaussian_kernel(config.inhibit_sigma_theta, config.inhibit_radius), k_inh, k_inh))
+    return (
+        (gaussian_kernel(config.excite_sigma_theta, config.excite_radius), k_exc, k_exc),
+        (gaussian_kernel(config.inhibit_sigma_theta, config.inhibit_radius), k_inh, k_inh),
+    )
 
 
 def _ring_gap(s1: int, l1: int, s2: int, l2: int, n: int) -> int:
@@ -57,8 +59,8 @@ def _arc_union(s1: int, l1: int, s2: int, l2: int, n: int) -> tuple[int, int]:
         return s1, n
     if l2 >= n:
         return s2, n
-    a = max(l1, (s2 - s1) % n + l2)          # starting at s1
-    b = max(l2, (s1 - s2) % n + l1)          # starting at s2
+    a = max(l1, (s2 - s1) % n + l2)  # starting at s1
+    b = max(l2, (s1 - s2) % n + l1)  # starting at s2
     if min(a, b) >= n:
         return 0, n
     return (s1, a) if a <= b else (s2, b)
@@ -127,8 +129,11 @@ class PoseCells:
         for start, act in self._boxes:
             t, x, y = np.nonzero(act)
             vals.append(act[t, x, y])
-            cells.append(np.stack(((x + start[1]) % self._n[1], (y + start[2]) % self._n[2],
-                                   (t + start[0]) % self._n[0]), axis=1))
+            cells.append(
+                np.stack(
+                    ((x + start[1]) % self._n[1], (y + start[2]) % self._n[2], (t + start[0]) % self._n[0]), axis=1
+                )
+            )
         return np.concatenate(cells), np.concatenate(vals)
 
     def cells_at_least(self, fraction: float) -> tuple[np.ndarray, np.ndarray]:
@@ -158,8 +163,12 @@ class PoseCells:
         values = np.asarray(state["pc_values"], dtype=float)
         for start, shape in zip(state["pc_starts"], state["pc_shapes"]):
             size = int(np.prod(shape))
-            boxes.append([np.asarray(start, dtype=np.int64).copy(),
-                          values[pos:pos + size].reshape(tuple(int(v) for v in shape)).copy()])
+            boxes.append(
+                [
+                    np.asarray(start, dtype=np.int64).copy(),
+                    values[pos : pos + size].reshape(tuple(int(v) for v in shape)).copy(),
+                ]
+            )
             pos += size
         self._boxes = boxes
         self._peak = np.asarray(state["pc_peak"], dtype=float).copy()
@@ -254,9 +263,22 @@ class PoseCells:
         for start, act in self._boxes:
             # 1. local excitation (the box grows by the excitation radius), 2. local inhibition
             # within that box, 3. global inhibition and non-negativity, then crop
-            start, act, mass = K.network_box(act, start, n, te[0], te[1], te[2], ti[0], ti[1], ti[2],
-                                             self._off_spread, self._off_within, r, cfg.inhibit_weight,
-                                             cfg.global_inhibition)
+            start, act, mass = K.network_box(
+                act,
+                start,
+                n,
+                te[0],
+                te[1],
+                te[2],
+                ti[0],
+                ti[1],
+                ti[2],
+                self._off_spread,
+                self._off_within,
+                r,
+                cfg.inhibit_weight,
+                cfg.global_inhibition,
+            )
             if act.size:
                 total += mass
                 new_boxes.append([start, act])
@@ -278,16 +300,22 @@ class PoseCells:
             self._path_integrate_box(box, v_trans_dt, v_rot_dt)
 
     def _path_integrate_box(self, box: list, v_trans_dt: float, v_rot_dt: float) -> None:
-        box[0], box[1] = K.path_integrate_box(box[1], box[0], self._n, self._cos, self._sin,
-                                              v_trans_dt / self.config.cell_size_m,
-                                              v_rot_dt / self.config.theta_cell_rad)
+        box[0], box[1] = K.path_integrate_box(
+            box[1],
+            box[0],
+            self._n,
+            self._cos,
+            self._sin,
+            v_trans_dt / self.config.cell_size_m,
+            v_rot_dt / self.config.theta_cell_rad,
+        )
 
     def _update_peak(self) -> None:
         """Strongest cell refined by the circular weighted mean of its neighbourhood."""
         boxes, n, rad = self._boxes, self._n, self.config.peak_radius
         best = [K.strongest_cell(act) for _, act in boxes]
         bi = max(range(len(boxes)), key=lambda i: best[i][0]) if len(boxes) > 1 else 0
-        cg = (boxes[bi][0] + best[bi][1]) % n              # global strongest cell (θ, x, y)
+        cg = (boxes[bi][0] + best[bi][1]) % n  # global strongest cell (θ, x, y)
         sums = K.neighbourhood_sums(boxes[bi][1], (cg - rad - boxes[bi][0]) % n, rad, n)
         for i, (start, act) in enumerate(boxes):
             if i != bi:

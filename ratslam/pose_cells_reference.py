@@ -62,7 +62,7 @@ class FullGridPoseCells:
     def cells_at_least(self, fraction: float) -> tuple[np.ndarray, np.ndarray]:
         """Active cells at or above ``fraction`` of the strongest: sorted linear indices over
         (x', y', θ') and their activities."""
-        a = self.activity                                   # (x, y, θ): C order is the linear index
+        a = self.activity  # (x, y, θ): C order is the linear index
         flat = a.reshape(-1)
         lin = np.flatnonzero((flat > 0.0) & (flat >= fraction * flat.max()))
         return lin, flat[lin]

@@ -26,7 +26,7 @@ def merge_associations(old_lin, old_w, old_t, new_lin, new_w, tick):
         elif i == m or new_lin[j] < old_lin[i]:
             lin[o], w[o], t[o] = new_lin[j], new_w[j], tick
             j += 1
-        else:                                    # same cell: max rule, old wins ties
+        else:  # same cell: max rule, old wins ties
             if new_w[j] > old_w[i]:
                 lin[o], w[o], t[o] = new_lin[j], new_w[j], tick
             else:

@@ -10,12 +10,12 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from rosbags.rosbag2 import Writer  # noqa: E402
-from rosbags.typesys import Stores, get_typestore  # noqa: E402
+from rosbags.rosbag2 import Writer
+from rosbags.typesys import Stores, get_typestore
 
-from harness.runner import dead_reckon  # noqa: E402
-from worlds import simulate  # noqa: E402
-from worlds.bag_import import BagImportError, import_bag  # noqa: E402
+from harness.runner import dead_reckon
+from worlds import simulate
+from worlds.bag_import import BagImportError, import_bag
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
@@ -27,20 +27,24 @@ def _cli(*args):
 
 def _header(t):
     sec = int(np.floor(t))
-    return T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9))),
-                                    frame_id="odom")
+    return T["std_msgs/msg/Header"](
+        stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9))), frame_id="odom"
+    )
 
 
 def _odometry(t, x, y, th, v, w):
     P, Q = T["geometry_msgs/msg/Point"], T["geometry_msgs/msg/Quaternion"]
     pose = T["geometry_msgs/msg/PoseWithCovariance"](
-        pose=T["geometry_msgs/msg/Pose"](position=P(x=x, y=y, z=0.0), orientation=Q(x=0.0, y=0.0, z=np.sin(th / 2),
-                                                                                   w=np.cos(th / 2))),
-        covariance=np.zeros(36))
+        pose=T["geometry_msgs/msg/Pose"](
+            position=P(x=x, y=y, z=0.0), orientation=Q(x=0.0, y=0.0, z=np.sin(th / 2), w=np.cos(th / 2))
+        ),
+        covariance=np.zeros(36),
+    )
     V = T["geometry_msgs/msg/Vector3"]
     twist = T["geometry_msgs/msg/TwistWithCovariance"](
         twist=T["geometry_msgs/msg/Twist"](linear=V(x=v, y=0.0, z=0.0), angular=V(x=0.0, y=0.0, z=w)),
-        covariance=np.zeros(36))
+        covariance=np.zeros(36),
+    )
     return T["nav_msgs/msg/Odometry"](header=_header(t), child_frame_id="base_link", pose=pose, twist=twist)
 
 
@@ -63,8 +67,11 @@ def bag(tmp_path_factory):
             writer.write(odom, ns, TS.serialize_cdr(_odometry(t[k], *odo[k], v[k], w[k]), "nav_msgs/msg/Odometry"))
             writer.write(truth, ns, TS.serialize_cdr(_odometry(t[k], *gt[k], 0.0, 0.0), "nav_msgs/msg/Odometry"))
             if k:
-                writer.write(place, ns, TS.serialize_cdr(T["std_msgs/msg/Int32"](data=int(log.scene_id[k - 1])),
-                                                         "std_msgs/msg/Int32"))
+                writer.write(
+                    place,
+                    ns,
+                    TS.serialize_cdr(T["std_msgs/msg/Int32"](data=int(log.scene_id[k - 1])), "std_msgs/msg/Int32"),
+                )
     return path, log
 
 
@@ -80,12 +87,17 @@ def test_bag_odometry_ground_truth_and_labels(bag):
         np.testing.assert_allclose(got.ground_truth()[:, :2], log.ground_truth()[:, :2], atol=1e-6)
 
 
-@pytest.mark.parametrize("args, expected", [
-    (("--odom", "/wheel_odom", "--labels", "/place"), "topic /wheel_odom (odometry): not in the bag (topics: "),
-    (("--odom", "/place", "--labels", "/place"), "topic /place (odometry): type std_msgs/msg/Int32, expected "
-                                                 "nav_msgs/msg/Odometry"),
-    (("--odom", "/odom", "--labels", "/odom"), "topic /odom (place labels): type nav_msgs/msg/Odometry"),
-])
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (("--odom", "/wheel_odom", "--labels", "/place"), "topic /wheel_odom (odometry): not in the bag (topics: "),
+        (
+            ("--odom", "/place", "--labels", "/place"),
+            "topic /place (odometry): type std_msgs/msg/Int32, expected nav_msgs/msg/Odometry",
+        ),
+        (("--odom", "/odom", "--labels", "/odom"), "topic /odom (place labels): type nav_msgs/msg/Odometry"),
+    ],
+)
 def test_bad_topics_are_one_line_and_write_nothing(bag, tmp_path, args, expected):
     path, _ = bag
     out = tmp_path / "log.csv"
@@ -103,8 +115,19 @@ def test_not_a_bag(tmp_path):
 def test_bag_imported_and_replayed_through_the_cli(bag, tmp_path):
     path, _ = bag
     out = tmp_path / "log.csv"
-    r = _cli("import", "rosbag", str(path), "--odom", "/odom", "--gt", "/ground_truth", "--labels", "/place",
-             "--out", str(out))
+    r = _cli(
+        "import",
+        "rosbag",
+        str(path),
+        "--odom",
+        "/odom",
+        "--gt",
+        "/ground_truth",
+        "--labels",
+        "/place",
+        "--out",
+        str(out),
+    )
     assert r.returncode == 0, r.stderr
     r = _cli("replay", str(out), "--out", str(tmp_path / "run"), "--quiet", "--no-recording")
     assert r.returncode == 0, r.stderr

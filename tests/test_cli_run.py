@@ -8,13 +8,19 @@ import sys
 import numpy as np
 import pytest
 
-RUN_DIR_FILES = ("recording.rrd", "metrics.json", "report.md", "trajectories/ground_truth.tum",
-                 "trajectories/odometry.tum", "trajectories/ratslam.tum", "trajectories/gtsam.tum")
+RUN_DIR_FILES = (
+    "recording.rrd",
+    "metrics.json",
+    "report.md",
+    "trajectories/ground_truth.tum",
+    "trajectories/odometry.tum",
+    "trajectories/ratslam.tum",
+    "trajectories/gtsam.tum",
+)
 
 
 def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True,
-                          cwd=cwd)
+    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
 def test_run_a_figure_writes_the_run_directory_and_says_where_the_recording_is(tmp_path):
@@ -43,12 +49,15 @@ def test_replay_a_log_then_rebuild_its_report(tmp_path):
     assert (out / "report.md").read_text().startswith("# replay")
 
 
-@pytest.mark.parametrize("args, expected", [
-    (("run", "fig99"), "unknown figure 'fig99'"),
-    (("run", "fig7", "--duration", "nan"), "--duration: must be a positive number"),
-    (("replay", "no_such_log.csv", "--out", "OUT"), "no_such_log.csv"),
-    (("report", "no_such_dir"), "no_such_dir: not a directory"),
-])
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (("run", "fig99"), "unknown figure 'fig99'"),
+        (("run", "fig7", "--duration", "nan"), "--duration: must be a positive number"),
+        (("replay", "no_such_log.csv", "--out", "OUT"), "no_such_log.csv"),
+        (("report", "no_such_dir"), "no_such_dir: not a directory"),
+    ],
+)
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, expected):
     args = tuple(str(tmp_path / a) if a in ("OUT", "no_such_log.csv", "no_such_dir") else a for a in args)
     r = _cli(*args, cwd=tmp_path)

@@ -9,14 +9,14 @@ from worlds import ObservationLog
 
 
 def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True,
-                          cwd=cwd)
+    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
 def test_simulate_writes_log_and_png(tmp_path):
     out = tmp_path / "run" / "log.csv"
-    r = _cli("simulate", "small_loop", "--out", str(out), "--duration", "60", "--seed", "3",
-             "--bias", "1.5", "--fp", "0.01")
+    r = _cli(
+        "simulate", "small_loop", "--out", str(out), "--duration", "60", "--seed", "3", "--bias", "1.5", "--fp", "0.01"
+    )
     assert r.returncode == 0, r.stderr
     log = ObservationLog.read_csv(out)
     assert len(log) == 420 and log.has_ground_truth
@@ -32,19 +32,24 @@ def test_list_names_the_worlds():
         assert name in r.stdout
 
 
-@pytest.mark.parametrize("args, expected", [
-    (["simulate", "atlantis", "--out", "{out}"], "no such world file or shipped world"),
-    (["simulate", "small_loop", "--out", "{out}", "--bias", "nan"], "--bias: must be a finite number"),
-    (["simulate", "small_loop", "--out", "{out}", "--fp", "2"], "--fp: must be a rate in [0, 1]"),
-    (["simulate", "small_loop", "--out", "{out}", "--duration", "-5"], "--duration: must be a positive"),
-    (["simulate", "{bad_world}", "--out", "{out}"], "robot.speed: must be positive"),
-])
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (["simulate", "atlantis", "--out", "{out}"], "no such world file or shipped world"),
+        (["simulate", "small_loop", "--out", "{out}", "--bias", "nan"], "--bias: must be a finite number"),
+        (["simulate", "small_loop", "--out", "{out}", "--fp", "2"], "--fp: must be a rate in [0, 1]"),
+        (["simulate", "small_loop", "--out", "{out}", "--duration", "-5"], "--duration: must be a positive"),
+        (["simulate", "{bad_world}", "--out", "{out}"], "robot.speed: must be positive"),
+    ],
+)
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, expected):
     bad_world = tmp_path / "bad.toml"
-    bad_world.write_text('name = "x"\nsize = [4.0, 4.0]\n[start]\npose = [1.0, 1.0, 0.0]\n'
-                         '[walls]\nrectangles = [[0.0, 0.0, 4.0, 4.0]]\n'
-                         '[route]\nnodes = { A = [1.0, 1.0], B = [3.0, 1.0] }\nedges = [["A", "B"]]\n'
-                         '[robot]\nspeed = -1.0\n')
+    bad_world.write_text(
+        'name = "x"\nsize = [4.0, 4.0]\n[start]\npose = [1.0, 1.0, 0.0]\n'
+        "[walls]\nrectangles = [[0.0, 0.0, 4.0, 4.0]]\n"
+        '[route]\nnodes = { A = [1.0, 1.0], B = [3.0, 1.0] }\nedges = [["A", "B"]]\n'
+        "[robot]\nspeed = -1.0\n"
+    )
     out = tmp_path / "out" / "log.csv"
     r = _cli(*[a.format(out=out, bad_world=bad_world) for a in args])
     assert r.returncode == 2

@@ -22,8 +22,8 @@ def test_effective_config_round_trips_exactly(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text(config_toml(rs, pg, "header"))
     got = read_config_file(path).apply(RatSLAMConfig(), PoseGraphConfig())
-    assert got == (rs, pg)                                   # floats bit for bit (repr)
-    default = tmp_path / "d.toml"                            # None fields are left unset
+    assert got == (rs, pg)  # floats bit for bit (repr)
+    default = tmp_path / "d.toml"  # None fields are left unset
     default.write_text(config_toml(RatSLAMConfig(), PoseGraphConfig()))
     assert read_config_file(default).apply(RatSLAMConfig(), PoseGraphConfig()) == (RatSLAMConfig(), PoseGraphConfig())
 
@@ -36,17 +36,20 @@ def test_values_go_on_top_of_the_given_configs(tmp_path):
     assert (pg.estimate_yaw_bias, pg.closure_max_candidates) == (True, 2)
 
 
-@pytest.mark.parametrize("text, expected", [
-    ("[ratslm]\nnx = 40\n", "[ratslm]: unknown table"),
-    ("[ratslam]\nnxx = 40\n", "[ratslam] nxx: unknown key"),
-    ("[ratslam]\nnx = 40.5\n", "[ratslam] nx: expected an integer, got 40.5"),
-    ("[gtsam]\nonline = 1\n", "[gtsam] online: expected true or false, got 1"),
-    ("[gtsam]\nbackend = 3\n", "[gtsam] backend: expected a string"),
-    ("[ratslam]\nnx = 3\n", "[ratslam] nx must be an integer >= 4, got 3"),
-    ("[gtsam]\nbackend = \"magic\"\n", "[gtsam] backend: unknown back-end 'magic'"),
-    ("[ratslam]\nnx = \n", "not valid TOML"),
-    ("ratslam = 3\n", "ratslam: expected a table [ratslam]"),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("[ratslm]\nnx = 40\n", "[ratslm]: unknown table"),
+        ("[ratslam]\nnxx = 40\n", "[ratslam] nxx: unknown key"),
+        ("[ratslam]\nnx = 40.5\n", "[ratslam] nx: expected an integer, got 40.5"),
+        ("[gtsam]\nonline = 1\n", "[gtsam] online: expected true or false, got 1"),
+        ("[gtsam]\nbackend = 3\n", "[gtsam] backend: expected a string"),
+        ("[ratslam]\nnx = 3\n", "[ratslam] nx must be an integer >= 4, got 3"),
+        ('[gtsam]\nbackend = "magic"\n', "[gtsam] backend: unknown back-end 'magic'"),
+        ("[ratslam]\nnx = \n", "not valid TOML"),
+        ("ratslam = 3\n", "ratslam: expected a table [ratslam]"),
+    ],
+)
 def test_bad_config_is_one_line_naming_file_table_key(tmp_path, text, expected):
     path = tmp_path / "bad.toml"
     path.write_text(text)
@@ -80,9 +83,11 @@ def test_a_runs_config_toml_reproduces_it_bit_for_bit(tmp_path):
     log = tmp_path / "log.csv"
     assert _cli("simulate", "small_loop", "--out", str(log), "--duration", "120", "--quiet").returncode == 0
     first = tmp_path / "first.toml"
-    first.write_text("[ratslam]\nr_inf = 2.5\nenergy = \"sum\"\n[gtsam]\nkeyframe_distance = 0.4\n")
+    first.write_text('[ratslam]\nr_inf = 2.5\nenergy = "sum"\n[gtsam]\nkeyframe_distance = 0.4\n')
     a, b = tmp_path / "a", tmp_path / "b"
-    assert _cli("replay", str(log), "--out", str(a), "--config", str(first), "--quiet", "--no-recording").returncode == 0
+    assert (
+        _cli("replay", str(log), "--out", str(a), "--config", str(first), "--quiet", "--no-recording").returncode == 0
+    )
     text = (a / "config.toml").read_text()
     assert "r_inf = 2.5" in text and 'energy = "sum"' in text and "keyframe_distance = 0.4" in text
     r = _cli("replay", str(log), "--out", str(b), "--config", str(a / "config.toml"), "--quiet", "--no-recording")

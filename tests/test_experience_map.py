@@ -31,11 +31,11 @@ def test_zone_of_influence_eqs_2_to_9():
         em = make_map(cfg, poses=[(0, 0, 0)] * 4, cells=cells)
         em._exp.cols["view"][:4] = 7
         e = em.energy(np.array([10.0, 10.0, 5.0]), 7)
-        exy = np.array([1.0, 0.5, 1.0, 0.0])          # r = 0, 1, 0, 10.5 cells
-        eth = np.array([1.0, 0.5, 0.0, 1.0])          # Δθ' = 0, 1, 6 (wrapped), 0
+        exy = np.array([1.0, 0.5, 1.0, 0.0])  # r = 0, 1, 0, 10.5 cells
+        eth = np.array([1.0, 0.5, 0.0, 1.0])  # Δθ' = 0, 1, 6 (wrapped), 0
         expected = exy + eth if energy == "sum" else exy * eth
         np.testing.assert_allclose(e, expected)
-        assert np.all(em.energy(np.array([10.0, 10.0, 5.0]), 8) == 0.0)   # E_V = 0
+        assert np.all(em.energy(np.array([10.0, 10.0, 5.0]), 8) == 0.0)  # E_V = 0
     # wrap across the x' face: 59.5 -> 0.5 is 1 cell
     em = make_map(CFG, poses=[(0, 0, 0)], cells=[(59.5, 10.0, 5.0)])
     assert em.energy(np.array([0.5, 10.0, 5.0]), 0)[0] > 0.0
@@ -56,8 +56,7 @@ def test_new_experience_exactly_when_no_experience_has_positive_energy():
         cfg = CFG.replace(energy=energy, r_inf=2.0, theta_inf=2.0)
         em = ExperienceMap(cfg)
         rng = np.random.default_rng(1)
-        tick = 0
-        for _ in range(400):
+        for tick in range(400):
             peak = rng.uniform([0, 0, 0], [12, 12, 8])
             view = int(rng.integers(0, 4))
             em.integrate(0.1, rng.uniform(0, 1), rng.normal())
@@ -69,7 +68,6 @@ def test_new_experience_exactly_when_no_experience_has_positive_energy():
             if had_positive:
                 e = em.energy(peak, view)
                 assert em.current == int(np.argmax(e))
-            tick += 1
         assert 5 < em.size < 400
 
 
@@ -153,8 +151,11 @@ def test_paper_transition_assumes_the_robot_is_at_the_experience():
 def _three_experience_map(correction):
     cfg = CFG.replace(correction=correction, alpha_theta=0.5, alpha_d=0.5)
     poses = [(0.0, 0.0, 0.0), (1.2, 0.1, 0.1), (1.0, 1.0, 1.5)]
-    links = [(0, 1, 1.0, 0.0, 0.0), (1, 2, 1.0, math.pi / 2, math.pi / 2),
-             (0, 2, math.sqrt(2.0), math.pi / 4, math.pi / 2)]
+    links = [
+        (0, 1, 1.0, 0.0, 0.0),
+        (1, 2, 1.0, math.pi / 2, math.pi / 2),
+        (0, 2, math.sqrt(2.0), math.pi / 4, math.pi / 2),
+    ]
     return make_map(cfg, poses, links)
 
 
@@ -170,19 +171,20 @@ def test_eqs_12_to_14_printed_form_hand_computed():
     new pose = old + 0.5 Δ."""
     em = _three_experience_map("printed")
     em.correct()
-    expected = np.array([
-        [0.1, 0.05, 0.01460185],
-        [1.2 - 0.1500833, 0.1 - 0.0975021, 0.1 - 0.13539815],
-        [1.0 + 0.0500833, 1.0 + 0.0475021, 1.5 + 0.1207963],
-    ])
+    expected = np.array(
+        [
+            [0.1, 0.05, 0.01460185],
+            [1.2 - 0.1500833, 0.1 - 0.0975021, 0.1 - 0.13539815],
+            [1.0 + 0.0500833, 1.0 + 0.0475021, 1.5 + 0.1207963],
+        ]
+    )
     np.testing.assert_allclose(em.poses, expected, atol=2e-7)
 
 
 def test_eqs_12_to_14_stable_form_is_alpha_times_mean_residual():
     em = _three_experience_map("stable")
     em.correct()
-    delta = np.array([[0.2, 0.1, 0.0292037], [-0.3001666, -0.1950042, -0.2707963],
-                      [0.1001666, 0.0950042, 0.2415926]])
+    delta = np.array([[0.2, 0.1, 0.0292037], [-0.3001666, -0.1950042, -0.2707963], [0.1001666, 0.0950042, 0.2415926]])
     before = np.array([(0.0, 0.0, 0.0), (1.2, 0.1, 0.1), (1.0, 1.0, 1.5)])
     np.testing.assert_allclose(em.poses, before + 0.5 * delta / 2.0, atol=2e-7)  # 2 links each
 
@@ -222,7 +224,7 @@ def test_correction_residuals_shrink_geometrically_after_loop_closure():
     norms = np.array(norms)
     assert norms[0] > 0.1
     ratios = norms[50:350:50][1:] / norms[50:350:50][:-1]
-    assert np.all(ratios < 0.6), ratios      # measured: ≈ 0.20 per 50 passes
+    assert np.all(ratios < 0.6), ratios  # measured: ≈ 0.20 per 50 passes
     assert np.all(np.diff(norms[20:]) <= 1e-12)
     assert norms[-1] < 1e-6 * norms[0]
     # the corrected map is the true square up to a rigid motion
@@ -251,7 +253,7 @@ def test_printed_correction_diverges_where_experiences_have_many_links():
             em.correct()
     for _ in range(400):
         stable.correct()
-    assert not np.abs(em.link_residuals()).sum() < 100 * start   # blew up (or overflowed)
+    assert not np.abs(em.link_residuals()).sum() < 100 * start  # blew up (or overflowed)
     assert np.abs(stable.link_residuals()).sum() < 0.01 * start
 
 
@@ -261,7 +263,7 @@ def test_duplicate_transitions_are_not_added():
     em.integrate(1.0, 1.0, 0.0)
     em.update(1, np.array([10.0, 0.0, 0.0]), 2)
     em.integrate(1.0, 1.0, 0.0)
-    em.update(2, np.array([0.0, 0.0, 0.0]), 1)   # back to experience 0: new link 1 -> 0
+    em.update(2, np.array([0.0, 0.0, 0.0]), 1)  # back to experience 0: new link 1 -> 0
     em.integrate(1.0, 1.0, 0.0)
     em.update(3, np.array([10.0, 0.0, 0.0]), 2)  # 0 -> 1 again: already linked
     assert em.size == 2
@@ -269,15 +271,16 @@ def test_duplicate_transitions_are_not_added():
 
 
 # ---------------------------------------------------------------- re-entry fusion (not in the paper)
-FUSE = CFG.replace(reentry_position_sigma_m=0.5, reentry_heading_sigma_deg=5.0,
-                   odom_speed_noise=0.1, odom_heading_noise=0.01)
+FUSE = CFG.replace(
+    reentry_position_sigma_m=0.5, reentry_heading_sigma_deg=5.0, odom_speed_noise=0.1, odom_heading_noise=0.01
+)
 
 
 def test_reentry_fusion_is_off_by_default_and_needs_both_sigmas():
     assert CFG.reentry_position_sigma_m == 0.0 and CFG.reentry_heading_sigma_deg == 0.0
     em = ExperienceMap(CFG)
     em.integrate(1.0, 1.0, 0.1)
-    np.testing.assert_array_equal(em._cov, 0.0)          # nothing is tracked when off
+    np.testing.assert_array_equal(em._cov, 0.0)  # nothing is tracked when off
     with pytest.raises(ValueError):
         CFG.replace(reentry_position_sigma_m=0.5)
     with pytest.raises(ValueError):
@@ -288,13 +291,13 @@ def test_odometry_covariance_grows_along_track_and_across_it_through_the_heading
     em = ExperienceMap(FUSE)
     em.add_experience((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1, 0)
     em._enter(0, 0)
-    for _ in range(100):                                  # 100 m straight along x at 1 m/s
+    for _ in range(100):  # 100 m straight along x at 1 m/s
         em.integrate(1.0, 1.0, 0.0)
     cov = em._cov
-    assert cov[0, 0] == pytest.approx(100 * 0.1 ** 2)     # white speed noise: linear in ticks
-    assert cov[2, 2] == pytest.approx(100 * 0.01 ** 2)
+    assert cov[0, 0] == pytest.approx(100 * 0.1**2)  # white speed noise: linear in ticks
+    assert cov[2, 2] == pytest.approx(100 * 0.01**2)
     # heading random walk: cross-track variance sum_k (k * 0.01)^2 ~ 0.01^2 * n^3 / 3
-    assert cov[1, 1] == pytest.approx(0.01 ** 2 * sum(k * k for k in range(100)), rel=1e-9)
+    assert cov[1, 1] == pytest.approx(0.01**2 * sum(k * k for k in range(100)), rel=1e-9)
 
 
 def _reentry(cov):
@@ -304,7 +307,7 @@ def _reentry(cov):
     em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 7, 0)
     em.add_experience((5.0, 0.0, math.pi), (30.0, 10.0, 18.0), 8, 1)
     em._enter(1, 1)
-    em._acc[:] = (4.6, 0.0, math.pi, 10.0)            # 4.6 m on from experience 1, turned back
+    em._acc[:] = (4.6, 0.0, math.pi, 10.0)  # 4.6 m on from experience 1, turned back
     em._cov = np.array(cov, dtype=float)
     pc = (0.0, 0.0, 0.1)
     return em, em.fuse_reentry(0, pc)
@@ -319,12 +322,12 @@ def test_reentry_fusion_keeps_the_odometry_when_it_is_certain():
 def test_reentry_fusion_takes_the_pose_cells_when_the_odometry_is_lost():
     em, off = _reentry(np.eye(3) * 1e9)
     assert off == pytest.approx((0.0, 0.0, 0.1), abs=1e-6)
-    assert em._cov[0, 0] == pytest.approx(0.5 ** 2, rel=1e-6)   # posterior: the view's
+    assert em._cov[0, 0] == pytest.approx(0.5**2, rel=1e-6)  # posterior: the view's
 
 
 def test_reentry_fusion_weighs_the_two_by_their_variances():
-    view = np.diag([0.5 ** 2, 0.5 ** 2, math.radians(5.0) ** 2])
-    em, off = _reentry(view)                              # equal variances: the midpoint
+    view = np.diag([0.5**2, 0.5**2, math.radians(5.0) ** 2])
+    em, off = _reentry(view)  # equal variances: the midpoint
     assert off == pytest.approx((0.2, 0.0, 0.05), abs=1e-12)
     np.testing.assert_allclose(em._cov, view / 2, rtol=1e-12)
 
@@ -335,8 +338,8 @@ def test_reentry_fusion_sets_link_and_pose_from_the_fused_offset():
     em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 5, 0)
     em.add_experience((1.0, 0.0, 0.0), (14.0, 10.0, 0.0), 6, 1)
     em._enter(1, 1)
-    em.integrate(1.0, -1.0, 0.0)                          # back to where experience 0 is, exactly
-    em._cov = np.zeros((3, 3))                            # ... and certain of it
+    em.integrate(1.0, -1.0, 0.0)  # back to where experience 0 is, exactly
+    em._cov = np.zeros((3, 3))  # ... and certain of it
     # the pose cells put the robot 0.25 m (one cell) ahead of experience 0, 10 deg turned
     assert em.update(3, np.array([11.0, 10.0, 1.0]), 5) == "switch"
     assert em.pose == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)

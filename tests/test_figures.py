@@ -26,8 +26,8 @@ VARIANTS = {"fig4": (), "plaza1": (), "plaza2": ()}
 # loosened.
 KNOWN_FAILURES = {
     ("fig11", "g_h_two_pose_cell_loops"): "full floor: the pose cells relocalise the second lap of the room "
-                                          "onto the first (lap centres 0.03 m apart; 0.30 m even with "
-                                          "view injection off), see the figure's notes",
+    "onto the first (lap centres 0.03 m apart; 0.30 m even with "
+    "view injection off), see the figure's notes",
 }
 
 
@@ -39,8 +39,11 @@ def _marks(figure: str, claim: str) -> list:
     return marks
 
 
-CASES = [pytest.param(fig.name, claim.key, id=f"{fig.name}-{claim.key}", marks=_marks(fig.name, claim.key))
-         for fig in FIGURES.values() for claim in fig.claims]
+CASES = [
+    pytest.param(fig.name, claim.key, id=f"{fig.name}-{claim.key}", marks=_marks(fig.name, claim.key))
+    for fig in FIGURES.values()
+    for claim in fig.claims
+]
 
 
 @pytest.fixture(scope="module")
@@ -50,10 +53,10 @@ def figure_runs(tmp_path_factory):
     def get(name):
         if name not in cache:
             out = tmp_path_factory.mktemp(name) / "run"
-            run_figure(name, out=out, duration=DURATIONS.get(name), show_progress=False,
-                       variants=VARIANTS.get(name))
+            run_figure(name, out=out, duration=DURATIONS.get(name), show_progress=False, variants=VARIANTS.get(name))
             cache[name] = json.loads((out / "metrics.json").read_text()), out
         return cache[name]
+
     return get
 
 
@@ -70,8 +73,7 @@ def test_run_directory_contract(figure_runs):
     """The run-directory contract: metrics with provenance, TUM files, report, panels."""
     metrics, out = figure_runs("fig8")
     for name in ("ground_truth", "odometry", "ratslam", "gtsam"):
-        lines = [ln for ln in (out / "trajectories" / f"{name}.tum").read_text().splitlines()
-                 if not ln.startswith("#")]
+        lines = [ln for ln in (out / "trajectories" / f"{name}.tum").read_text().splitlines() if not ln.startswith("#")]
         assert len(lines) == metrics["variants"]["paper"]["ticks"]
         assert len(lines[0].split()) == 8
     prov = metrics["provenance"]
@@ -124,8 +126,7 @@ def test_same_seed_same_metrics(tmp_path):
 def test_parallel_variants_match_a_sequential_run(tmp_path):
     """Determinism whatever the number of processes: a figure's variants run in parallel
     processes give the same metrics and trajectories, bit for bit, as run one after another."""
-    outs = [run_figure("fig8", out=tmp_path / f"w{w}", duration=120.0, show_progress=False, workers=w)
-            for w in (1, 3)]
+    outs = [run_figure("fig8", out=tmp_path / f"w{w}", duration=120.0, show_progress=False, workers=w) for w in (1, 3)]
     runs = []
     for out in outs:
         m = json.loads((out / "metrics.json").read_text())

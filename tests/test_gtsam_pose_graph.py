@@ -75,8 +75,10 @@ def test_step_accepts_python_and_numpy_scalars():
     assert all(isinstance(c, float) for c in a.pose)
 
 
-@pytest.mark.parametrize("bad", [(DT, float("nan"), 0.0, 1), (-DT, 0.3, 0.0, 1), (DT, 0.3, 0.0, 1.5),
-                                 (DT, 0.3, 0.0, "a"), (DT, 0.3, 0.0, True)])
+@pytest.mark.parametrize(
+    "bad",
+    [(DT, float("nan"), 0.0, 1), (-DT, 0.3, 0.0, 1), (DT, 0.3, 0.0, 1.5), (DT, 0.3, 0.0, "a"), (DT, 0.3, 0.0, True)],
+)
 def test_step_rejects_bad_input(bad):
     with pytest.raises(ValueError, match="^step:"):
         PoseGraphSLAM().step(*bad)
@@ -239,10 +241,10 @@ def test_gnc_holds_each_closure_once_with_batched_closures():
     for i in range(held.size()):
         f = held.at(i)
         if f is not None and len(f.keys()) == 2:
-            a, b = (gtsam.Symbol(k).index() for k in f.keys())
-            closure_factors += abs(a - b) != 1          # odometry joins consecutive keyframes
+            a, b = (gtsam.Symbol(k).index() for k in f.keys())  # noqa: SIM118 (a gtsam factor)
+            closure_factors += abs(a - b) != 1  # odometry joins consecutive keyframes
     present = sum(1 for idx in pg._lc_isam_index if idx >= 0)
-    assert present > 50 and closure_factors == present    # measured before the fix: 173 vs 151
+    assert present > 50 and closure_factors == present  # measured before the fix: 173 vs 151
 
 
 def _isam_keyframes(slam):
@@ -250,7 +252,7 @@ def _isam_keyframes(slam):
     import gtsam
 
     values = slam._isam.calculateEstimate()
-    return sum(1 for k in values.keys() if gtsam.Symbol(k).chr() == ord("x"))
+    return sum(1 for k in values.keys() if gtsam.Symbol(k).chr() == ord("x"))  # noqa: SIM118 (gtsam Values)
 
 
 @pytest.mark.parametrize("backend", ["robust", "gnc"])
@@ -270,7 +272,7 @@ def test_odometry_batch_gives_the_estimate_of_per_keyframe_updates(stream, backe
             # Reads mid-run cover every keyframe, including those not yet handed to iSAM2.
             deferred_seen += _isam_keyframes(batched) < batched.num_keyframes
             assert np.allclose(batched.keyframe_poses, each.keyframe_poses, atol=1e-3)
-    assert deferred_seen > 0                      # the batching was exercised
+    assert deferred_seen > 0  # the batching was exercised
     assert np.array_equal(batched.loop_closures, each.loop_closures)
     each.finalize()
     batched.finalize()

@@ -26,7 +26,7 @@ def test_real_log_that_gtsam_refuses_is_recovered_not_crashed(plaza1_start):
         pg.step(*row)
         online[k] = pg.pose
     pg.finalize()
-    assert pg.isam2_recoveries >= 1          # gtsam did refuse an update on this log (measured: 1)
+    assert pg.isam2_recoveries >= 1  # gtsam did refuse an update on this log (measured: 1)
     assert pg.closures_dropped == 0
     assert np.all(np.isfinite(pg.keyframe_poses))
     gt = log.ground_truth()
@@ -46,7 +46,7 @@ def test_plaza_import_follows_the_observation_log_contract(plaza1_start):
     gt = log.ground_truth()
     n = int(60 / np.median(log.dt))
     dr = dead_reckon(log, start=(gt[0, 0], gt[0, 1], gt[0, 2]))
-    assert np.hypot(*(dr[:n, :2] - gt[:n, :2]).T).max() < 2.0      # measured 0.81 m
+    assert np.hypot(*(dr[:n, :2] - gt[:n, :2]).T).max() < 2.0  # measured 0.81 m
 
 
 def test_derived_pose_graph_beats_plaza1_odometry():
@@ -56,6 +56,7 @@ def test_derived_pose_graph_beats_plaza1_odometry():
     closures no longer bend it. Measured (seed 0): keyframes 0.49 m, online 0.89 m, odometry
     1.47 m; with the roughness noise 1.58 / 1.07 m."""
     from harness.scale import derive_configs
+
     log = load_plaza("plaza1", seed=0)
     _, cfg, _ = derive_configs(log)
     assert cfg.odom_sigma_w < 0.01

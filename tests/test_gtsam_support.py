@@ -72,7 +72,7 @@ def precision_recall(accepted: np.ndarray, truth: np.ndarray) -> tuple[float, fl
     return precision, recall
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def sim_log(world: str, duration: float, fp_rate: float, bias_deg_s: float = 0.0, seed: int = 0):
     """Cached simulator stream (the simulator is deterministic per seed)."""
     from worlds import simulate
@@ -115,8 +115,8 @@ def test_vectorised_pose2_logmap_matches_gtsam():
     rng = np.random.default_rng(0)
     a = rng.normal(0, 3, (500, 3))
     b = a + rng.normal(0, 1, (500, 3))
-    b[:5] = a[:5]                                  # identical poses
-    b[5:10, 2] = a[5:10, 2] + 1e-12                # the small-angle branch
-    b[10:15, 2] = a[10:15, 2] + np.pi - 1e-9       # near the wrap
+    b[:5] = a[:5]  # identical poses
+    b[5:10, 2] = a[5:10, 2] + 1e-12  # the small-angle branch
+    b[10:15, 2] = a[10:15, 2] + np.pi - 1e-9  # near the wrap
     ref = np.array([gtsam.Pose2.Logmap(gtsam.Pose2(*p).between(gtsam.Pose2(*q))) for p, q in zip(a, b)])
     np.testing.assert_allclose(pose2_logmap_between(a, b), ref, rtol=0, atol=1e-9)

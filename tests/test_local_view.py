@@ -1,7 +1,5 @@
 """Local view cells: one per scene, Hebbian associations, injection, and the pinning trap."""
 
-import math
-
 import numpy as np
 import pytest
 
@@ -67,7 +65,7 @@ def test_familiar_view_injects_only_old_associations():
     lv.inject(3, 0, pc)
     lv.learn(0, pc)
     _, w, _ = lv.associations(0)
-    for k in range(1, CFG.view_min_age_ticks):     # fatigue recovers, association still young
+    for k in range(1, CFG.view_min_age_ticks):  # fatigue recovers, association still young
         lv.inject(-1, k, pc)
         lv.learn(k, pc)
     lv.inject(3, CFG.view_min_age_ticks - 1, pc)

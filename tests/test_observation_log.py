@@ -29,19 +29,22 @@ def test_log_without_ground_truth(tmp_path):
     assert log.scene_id.tolist() == [5, -1]
 
 
-@pytest.mark.parametrize("text, expected", [
-    ("t,dt,v_trans,scene_id\n0.1,0.1,0.3,5\n", "header: missing column(s) v_rot"),
-    (f"{HEADER}\n0.1,0.1,0.3,nan,5\n", "line 2, column v_rot: not a finite number"),
-    (f"{HEADER}\n0.1,0.1,0.3,0.0,5\n0.1,0.1,0.3,0.0,5\n", "line 3, column t: time must increase"),
-    (f"{HEADER}\n0.1,0.1,0.3,0.0,five\n", "line 2, column scene_id: not an integer"),
-    (f"{HEADER}\n0.1,0.1,0.3,0.0\n", "line 2: expected 5 fields, got 4"),
-    (f"{HEADER}\n0.1,-0.1,0.3,0.0,5\n", "line 2, column dt: must be positive"),
-    (f"{HEADER}\n0.1,0.1,0.3,0.0,-4\n", "line 2, column scene_id: must be >= -1"),
-    (f"{HEADER},speed\n0.1,0.1,0.3,0.0,1,2\n", "header: unknown column 'speed'"),
-    (f"{HEADER},gt_x\n0.1,0.1,0.3,0.0,1,2\n", "ground-truth columns need all of"),
-    (f"{HEADER}\n", "no observations"),
-    ("", "empty file"),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("t,dt,v_trans,scene_id\n0.1,0.1,0.3,5\n", "header: missing column(s) v_rot"),
+        (f"{HEADER}\n0.1,0.1,0.3,nan,5\n", "line 2, column v_rot: not a finite number"),
+        (f"{HEADER}\n0.1,0.1,0.3,0.0,5\n0.1,0.1,0.3,0.0,5\n", "line 3, column t: time must increase"),
+        (f"{HEADER}\n0.1,0.1,0.3,0.0,five\n", "line 2, column scene_id: not an integer"),
+        (f"{HEADER}\n0.1,0.1,0.3,0.0\n", "line 2: expected 5 fields, got 4"),
+        (f"{HEADER}\n0.1,-0.1,0.3,0.0,5\n", "line 2, column dt: must be positive"),
+        (f"{HEADER}\n0.1,0.1,0.3,0.0,-4\n", "line 2, column scene_id: must be >= -1"),
+        (f"{HEADER},speed\n0.1,0.1,0.3,0.0,1,2\n", "header: unknown column 'speed'"),
+        (f"{HEADER},gt_x\n0.1,0.1,0.3,0.0,1,2\n", "ground-truth columns need all of"),
+        (f"{HEADER}\n", "no observations"),
+        ("", "empty file"),
+    ],
+)
 def test_malformed_log_fails_with_one_line(tmp_path, text, expected):
     p = tmp_path / "bad.csv"
     p.write_text(text)

@@ -41,13 +41,13 @@ def test_cover_arc_finds_smallest_wrapping_arc():
     occ = np.zeros(10, dtype=bool)
     occ[[0, 1, 9]] = True
     assert cover_arc(occ, 0, 10) == (9, 3)
-    assert cover_arc(occ, 4, 10) == (3, 3)        # the same ring read from global index 4
+    assert cover_arc(occ, 4, 10) == (3, 3)  # the same ring read from global index 4
     occ[:] = False
     occ[[3, 5]] = True
     assert cover_arc(occ, 0, 10) == (3, 3)
     occ[:] = True
     assert cover_arc(occ, 0, 10) == (0, 10)
-    assert cover_arc(occ[:4], 7, 10) == (7, 4)    # a box shorter than the ring: plain extent
+    assert cover_arc(occ[:4], 7, 10) == (7, 4)  # a box shorter than the ring: plain extent
 
 
 def test_arc_union_is_the_smallest_covering_arc():
@@ -107,14 +107,14 @@ def test_straight_line_10m_peak_within_one_cell_of_vt():
         dist = v * DT * steps / CFG.cell_size_m
         expected = start + np.array([dist * math.cos(th), dist * math.sin(th), 0.0])
         err = wrapped_diff(pc.peak, expected, GRID)
-        assert np.hypot(err[0], err[1]) < 1.0, (heading_cell, err)   # measured <= 0.55 cells
+        assert np.hypot(err[0], err[1]) < 1.0, (heading_cell, err)  # measured <= 0.55 cells
         assert abs(err[2]) < 1.0
 
 
 def test_ninety_degree_turn_peak_within_one_cell():
     """Path integration around a 90 degree turn: peak within one cell of the integrated path."""
     pc = settled(cell=(20, 20, 0))
-    x, y, th = pc.peak
+    x, y, _ = pc.peak
     th_rad = 0.0
     legs = [(0.3, 0.0, 50), (0.1, math.pi / 2 / 3.0, 21), (0.3, 0.0, 50)]
     for v, w, steps in legs:

@@ -96,7 +96,7 @@ def test_only_blank_scenes_give_no_experiences_and_pure_odometry():
 def test_pose_is_current_experience_composed_with_odometry():
     slam = RatSLAM()
     slam.step(DT, 0.3, 0.0, 5)
-    slam.step(DT, 0.3, 0.0, 5)   # confirmed on its second tick: experience created
+    slam.step(DT, 0.3, 0.0, 5)  # confirmed on its second tick: experience created
     assert slam.current_experience == 0
     for _ in range(10):
         slam.step(DT, 0.3, 0.1, -1)
@@ -110,7 +110,7 @@ def test_pose_is_current_experience_composed_with_odometry():
     assert slam.pose == pytest.approx((ex + c * ax - s * ay, ey + s * ax + c * ay, et + aphi), abs=1e-12)
 
 
-CORRIDOR = np.repeat(np.arange(10, 18), 23)   # eight scenes of 23 ticks each (~1 m at 0.3 m/s)
+CORRIDOR = np.repeat(np.arange(10, 18), 23)  # eight scenes of 23 ticks each (~1 m at 0.3 m/s)
 
 
 def learn_corridor_then_move_away(slam: RatSLAM) -> dict:
@@ -120,11 +120,11 @@ def learn_corridor_then_move_away(slam: RatSLAM) -> dict:
     for s in CORRIDOR:
         slam.step(DT, 0.3, 0.0, s)
         learnt.setdefault(s, slam.peak)
-    for _ in range(60):                        # turn north
+    for _ in range(60):  # turn north
         slam.step(DT, 0.0, (math.pi / 2) / (60 * DT), -1)
-    for _ in range(80):                        # drive 2.5 m without views
+    for _ in range(80):  # drive 2.5 m without views
         slam.step(DT, 0.3, 0.0, -1)
-    for _ in range(60):                        # face east again
+    for _ in range(60):  # face east again
         slam.step(DT, 0.0, -(math.pi / 2) / (60 * DT), -1)
     return learnt
 
@@ -162,9 +162,9 @@ def test_experience_map_waits_for_the_peak_to_settle_after_a_snap(settle):
             first_snap = k
         acted.append((slam.current_experience, len(slam.experience_views)) != before)
     assert first_snap is not None
-    assert not any(acted[first_snap:first_snap + settle])
-    assert any(acted[first_snap + settle:])
-    assert slam.current_experience < n_corridor          # back on a corridor experience
+    assert not any(acted[first_snap : first_snap + settle])
+    assert any(acted[first_snap + settle :])
+    assert slam.current_experience < n_corridor  # back on a corridor experience
 
 
 def test_single_false_positive_tick_does_not_move_the_peak():
@@ -175,7 +175,7 @@ def test_single_false_positive_tick_does_not_move_the_peak():
     for _ in range(150):
         slam.step(DT, 0.0, 0.0, -1)
     before = slam.peak
-    slam.step(DT, 0.0, 0.0, 10)                # one tick: scene 10 belongs 8 m away
+    slam.step(DT, 0.0, 0.0, 10)  # one tick: scene 10 belongs 8 m away
     moved = []
     for _ in range(100):
         slam.step(DT, 0.0, 0.0, -1)
@@ -187,17 +187,29 @@ def test_single_false_positive_tick_does_not_move_the_peak():
 def test_save_load_round_trip_is_exact(tmp_path, fusion):
     stream = synthetic_stream(1200)
     cfg = RatSLAMConfig()
-    if fusion:   # the re-entry fusion's covariance is state too
-        cfg = cfg.replace(reentry_position_sigma_m=0.3, reentry_heading_sigma_deg=3.0,
-                          odom_speed_noise=0.02, odom_heading_noise=0.02)
+    if fusion:  # the re-entry fusion's covariance is state too
+        cfg = cfg.replace(
+            reentry_position_sigma_m=0.3, reentry_heading_sigma_deg=3.0, odom_speed_noise=0.02, odom_heading_noise=0.02
+        )
     a = run(RatSLAM(cfg), stream, 0, 700)
     path = tmp_path / "state.npz"
     a.save(path)
     b = RatSLAM.load(path)
     assert b.config == a.config and b.tick == a.tick
-    for name in ("experience_poses", "experience_cells", "experience_views", "experience_first_tick",
-                 "experience_last_tick", "links", "link_d", "link_theta", "link_phi", "link_dt",
-                 "peak", "pose_cell_activity"):
+    for name in (
+        "experience_poses",
+        "experience_cells",
+        "experience_views",
+        "experience_first_tick",
+        "experience_last_tick",
+        "links",
+        "link_d",
+        "link_theta",
+        "link_phi",
+        "link_dt",
+        "peak",
+        "pose_cell_activity",
+    ):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     run(a, stream, 700)
     run(b, stream, 700)
@@ -231,10 +243,20 @@ def test_determinism_bit_identical():
     assert a.pose == b.pose
 
 
-@pytest.mark.parametrize("field,value", [("nx", 2), ("energy", "max"), ("correction", "x"),
-                                         ("alpha_d", 1.5), ("global_inhibition", -1.0),
-                                         ("view_min_age_ticks", 0), ("r_inf", 0.0),
-                                         ("snap_settle_ticks", -1), ("offset_transitions", 1)])
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("nx", 2),
+        ("energy", "max"),
+        ("correction", "x"),
+        ("alpha_d", 1.5),
+        ("global_inhibition", -1.0),
+        ("view_min_age_ticks", 0),
+        ("r_inf", 0.0),
+        ("snap_settle_ticks", -1),
+        ("offset_transitions", 1),
+    ],
+)
 def test_bad_config_raises_one_line_value_error(field, value):
     with pytest.raises(ValueError, match=field) as err:
         RatSLAMConfig(**{field: value})

@@ -20,8 +20,11 @@ def _run(log, cfg):
         rs.step(*row)
         online[k] = rs.pose
     gt = log.ground_truth()
-    return (M.ate_rmse(rs.experience_poses, gt[rs.experience_first_tick]), M.ate_rmse(online, gt),
-            M.ate_rmse(dead_reckon(log), gt))
+    return (
+        M.ate_rmse(rs.experience_poses, gt[rs.experience_first_tick]),
+        M.ate_rmse(online, gt),
+        M.ate_rmse(dead_reckon(log), gt),
+    )
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -48,6 +51,6 @@ def test_derived_experience_map_beats_plaza2_odometry_clearly(seed):
     """Measured experience map / online: 1.60/2.98, 1.87/2.75, 1.41/2.25 m vs 15.9 m."""
     log = load_plaza("plaza2", seed=seed)
     cfg, _, _ = derive_configs(log)
-    assert cfg.cell_size_m > 0.4                          # at most 0.75 cells per tick
+    assert cfg.cell_size_m > 0.4  # at most 0.75 cells per tick
     mapped, online, odometry = _run(log, cfg)
     assert mapped < odometry / 5 and online < odometry / 3

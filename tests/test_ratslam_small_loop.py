@@ -56,12 +56,12 @@ def test_umeyama_recovers_a_rigid_motion():
     assert ate(est + rng.normal(0, 0.1, est.shape), gt) == pytest.approx(0.1 * math.sqrt(2), rel=0.2)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def simulate(bias_deg_s: float, fp_rate: float):
     return worlds.simulate("small_loop", duration=DURATION, seed=0, bias_deg_s=bias_deg_s, fp_rate=fp_rate)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def run(bias_deg_s: float, fp_rate: float, **config):
     """Run RatSLAM over a simulated log; returns (slam, log, per-tick peaks (cells), snap count)."""
     log = simulate(bias_deg_s, fp_rate)

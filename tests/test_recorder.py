@@ -142,12 +142,30 @@ def test_file_has_recording_and_blueprint(recording):
 
 def test_entity_paths_and_timelines(recording):
     _, _, store, by_entity = recording
-    expected = {"/world", "/world/walls", "/world/ground_truth", "/world/odometry", "/world/false_positives",
-                "/world/ratslam/experiences", "/world/ratslam/links", "/world/gtsam/estimate",
-                "/world/gtsam/closures", "/pose_cells", "/pose_cells/grid", "/pose_cells/activity",
-                "/pose_cells/peak", "/metrics/ate/odometry", "/metrics/ate/experience_map", "/metrics/ate/gtsam",
-                "/metrics/count/experiences", "/metrics/count/links", "/metrics/count/snaps",
-                "/metrics/count/keyframes", "/metrics/count/loop_closures_accepted", "/metrics/custom/value"}
+    expected = {
+        "/world",
+        "/world/walls",
+        "/world/ground_truth",
+        "/world/odometry",
+        "/world/false_positives",
+        "/world/ratslam/experiences",
+        "/world/ratslam/links",
+        "/world/gtsam/estimate",
+        "/world/gtsam/closures",
+        "/pose_cells",
+        "/pose_cells/grid",
+        "/pose_cells/activity",
+        "/pose_cells/peak",
+        "/metrics/ate/odometry",
+        "/metrics/ate/experience_map",
+        "/metrics/ate/gtsam",
+        "/metrics/count/experiences",
+        "/metrics/count/links",
+        "/metrics/count/snaps",
+        "/metrics/count/keyframes",
+        "/metrics/count/loop_closures_accepted",
+        "/metrics/custom/value",
+    }
     assert expected <= set(by_entity)
     assert "/metrics/skipped" not in by_entity
     timelines = {t for cs in by_entity.values() for c in cs for t in c.timeline_names}
@@ -171,8 +189,12 @@ def test_row_counts(recording):
     assert rows(by_entity, "/pose_cells/peak") == int((~wrapped | snapped).sum())
     n_periodic = lambda every: len(range(0, N_TICKS, every)) + ((N_TICKS - 1) % every != 0)  # noqa: E731
     assert rows(by_entity, "/pose_cells/activity") == n_periodic(EVERY_ACTIVITY)
-    for e in ("/world/ratslam/experiences", "/world/ratslam/links", "/world/gtsam/estimate",
-              "/metrics/count/experiences"):
+    for e in (
+        "/world/ratslam/experiences",
+        "/world/ratslam/links",
+        "/world/gtsam/estimate",
+        "/metrics/count/experiences",
+    ):
         assert rows(by_entity, e) == n_periodic(EVERY_MAP), e
     assert rows(by_entity, "/metrics/ate/odometry") == n_periodic(EVERY_MAP) - 1  # needs two poses
     assert rows(by_entity, "/world/false_positives") == len(FP_TICKS)
@@ -237,10 +259,9 @@ def test_without_ground_truth(tmp_path):
 
 def test_abort_leaves_nothing(tmp_path):
     path = tmp_path / "r.rrd"
-    with pytest.raises(KeyError):
-        with Recorder(path, None, GRID) as rec:
-            rec.log_tick(0, 0.0, None, np.zeros(3))
-            raise KeyError("interrupted")
+    with pytest.raises(KeyError), Recorder(path, None, GRID) as rec:
+        rec.log_tick(0, 0.0, None, np.zeros(3))
+        raise KeyError("interrupted")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -31,8 +31,8 @@ def test_measured_scale_of_the_simulated_log(small_loop_log):
     m = measure_log(small_loop_log)
     assert m.dt == pytest.approx(1 / 7, rel=1e-3)
     assert m.speed == pytest.approx(0.3, rel=0.05)
-    assert 0.8 < m.label_length < 1.05                # 1 m scene cells
-    assert 0.009 < m.sigma_v < 0.013 and 0.009 < m.sigma_w < 0.013   # simulated 0.01
+    assert 0.8 < m.label_length < 1.05  # 1 m scene cells
+    assert 0.009 < m.sigma_v < 0.013 and 0.009 < m.sigma_w < 0.013  # simulated 0.01
 
 
 def _drive(step_m, hz, label_m, n=6000, seed=0):
@@ -44,8 +44,7 @@ def _drive(step_m, hz, label_m, n=6000, seed=0):
     dist = np.cumsum(np.abs(v) * dt)
     cell = (dist // label_m).astype(int)
     scene = np.where(cell % 10 == 9, -1, cell % 500)
-    return ObservationLog(t=np.cumsum(dt), dt=dt, v_trans=v, v_rot=0.05 + rng.normal(0, 0.01, n),
-                          scene_id=scene)
+    return ObservationLog(t=np.cumsum(dt), dt=dt, v_trans=v, v_rot=0.05 + rng.normal(0, 0.01, n), scene_id=scene)
 
 
 def test_the_synthetic_drive_at_the_reference_scale_gets_the_defaults():
@@ -69,28 +68,34 @@ def test_a_faster_vehicle_gets_scaled_fields():
 
 
 def test_packet_speed_is_capped_by_larger_cells():
-    rs, _, _ = derive_configs(_drive(16 * 0.3 / 7, 10.0, 4.0))     # 0.69 m per tick
+    rs, _, _ = derive_configs(_drive(16 * 0.3 / 7, 10.0, 4.0))  # 0.69 m per tick
     assert rs.cell_size_m == pytest.approx(16 * 0.3 / 7 / 0.75)
     assert rs.pc_trans_gain == 1.0
-    assert rs.reentry_position_sigma_m == 0.0               # reference odometry noise: fusion off
+    assert rs.reentry_position_sigma_m == 0.0  # reference odometry noise: fusion off
 
 
 def test_ground_truth_never_enters_the_derivation():
     log = _drive(4 * 0.3 / 7, 7.0, 2.0)
-    with_gt = dataclasses.replace(log, gt_x=np.full(len(log), 1e6), gt_y=np.zeros(len(log)),
-                                  gt_theta=np.zeros(len(log)), false_positive=np.zeros(len(log), int))
+    with_gt = dataclasses.replace(
+        log,
+        gt_x=np.full(len(log), 1e6),
+        gt_y=np.zeros(len(log)),
+        gt_theta=np.zeros(len(log)),
+        false_positive=np.zeros(len(log), int),
+    )
     assert derive_configs(with_gt) == derive_configs(log)
 
 
 def test_ladder_and_gain():
     assert ladder(0.85) == 1.0 and ladder(1.18) == 1.0
-    assert ladder(4.7) == 4.0 and ladder(2.1) == 2.0 and ladder(2.9) == pytest.approx(2 ** 1.5)
+    assert ladder(4.7) == 4.0 and ladder(2.1) == 2.0 and ladder(2.9) == pytest.approx(2**1.5)
     assert trans_gain(0.17) == 1.05 and trans_gain(0.8) == 1.0
     assert 1.0 < trans_gain(0.4) < 1.05
 
 
-def _revisiting_drive(heading_drift: float, along_noise: float, jitter_w: float = 0.02, weave: float = 0.1,
-                      n=9000, seed=0):
+def _revisiting_drive(
+    heading_drift: float, along_noise: float, jitter_w: float = 0.02, weave: float = 0.1, n=9000, seed=0
+):
     """A vehicle driving a 40 m x 20 m rectangle at 1 m/s and 5 Hz (0.2 m per tick, labels in
     2 m cells and four heading sectors), its yaw rate rough (a weaving +-``weave`` rad/s signal plus
     ``jitter_w`` rad/s per tick of noise that does not integrate: each tick's error is undone on the
@@ -110,7 +115,7 @@ def _revisiting_drive(heading_drift: float, along_noise: float, jitter_w: float 
     theta = np.unwrap(np.arctan2(seg[k, 1], seg[k, 0]))
     true_w = np.r_[np.diff(theta), 0.0] / 0.2
     jitter = rng.normal(0, jitter_w, n + 1)
-    wobble = weave * np.sin(np.arange(n) * 1.3)    # integrates to a bounded +-0.02 rad wobble
+    wobble = weave * np.sin(np.arange(n) * 1.3)  # integrates to a bounded +-0.02 rad wobble
     w = true_w + wobble + jitter[1:] - jitter[:-1] + rng.normal(0, heading_drift, n)
     v = 1.0 + rng.normal(0, along_noise, n)
     cell = np.floor(x / 2.0).astype(int) * 1000 + np.floor(y / 2.0).astype(int) * 10
@@ -124,11 +129,11 @@ def test_revisits_replace_a_roughness_reading_that_they_reject():
     # noise 0.1 m/s, far above the speed's own roughness reading
     log = _revisiting_drive(heading_drift=0.0, along_noise=0.1)
     m = measure_log(log)
-    assert ladder(m.sigma_w / 0.01) >= 2.0                    # the roughness says: noisy yaw rate
+    assert ladder(m.sigma_w / 0.01) >= 2.0  # the roughness says: noisy yaw rate
     r = revisit_noise(log, min_travel=8.0, closure_sigma=2.0 / np.sqrt(6.0), margin=2.0)
     assert r is not None and r.pairs > 100
-    assert r.k_w <= 0.5                                        # the revisits: no heading drift
-    assert r.support_v[0] >= 4.0                               # and more than 0.04 m/s along track
+    assert r.k_w <= 0.5  # the revisits: no heading drift
+    assert r.support_v[0] >= 4.0  # and more than 0.04 m/s along track
     rs, pg, text = derive_configs(log)
     assert pg.odom_sigma_w <= 0.005 and pg.odom_sigma_v >= 0.04
     assert "Revisits" in text

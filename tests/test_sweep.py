@@ -13,8 +13,8 @@ import pytest
 from harness.cli import main
 from harness.sweep_report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
 from harness.sweep_run import run_sweep
-from harness.sweep_task import run_one
 from harness.sweep_spec import SweepSpecError, read_sweep_spec
+from harness.sweep_task import run_one
 
 SPEC = """
 [base]
@@ -51,18 +51,26 @@ def _rows_without_wall_time(path: Path) -> list[dict]:
         return [{k: v for k, v in row.items() if k not in WALL_COLUMNS} for row in csv.DictReader(f)]
 
 
-@pytest.mark.parametrize("edit, message", [
-    (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_ratio = [0.0]"), "[axes] fp_ratio: unknown axis"),
-    (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_rate = []"), "[axes] fp_rate: expected a non-empty list"),
-    (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_rate = [0.0, 1.5]"), "[axes] fp_rate: value 1.5 out of range"),
-    (lambda s: s.replace('backend = "gaussian"', 'backend = "gaussian"\nbakend = 1'),
-     "[systems.gtsam_gaussian] bakend: unknown key"),
-    (lambda s: s.replace('backend = "gaussian"', 'backend = "lasso"'), "[systems.gtsam_gaussian]"),
-    (lambda s: s.replace('system = "ratslam"', 'system = "orbslam"'), "[systems.ratslam] system"),
-    (lambda s: s.replace("count = 2", "count = 0"), "[seeds] count"),
-    (lambda s: s.replace('world = "small_loop"', 'world = "moon_base"'), "[base] world"),
-    (lambda s: s.replace("[axes]", "[axis]"), "axis: unknown key or table"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_ratio = [0.0]"), "[axes] fp_ratio: unknown axis"),
+        (lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_rate = []"), "[axes] fp_rate: expected a non-empty list"),
+        (
+            lambda s: s.replace("fp_rate = [0.002, 0.05]", "fp_rate = [0.0, 1.5]"),
+            "[axes] fp_rate: value 1.5 out of range",
+        ),
+        (
+            lambda s: s.replace('backend = "gaussian"', 'backend = "gaussian"\nbakend = 1'),
+            "[systems.gtsam_gaussian] bakend: unknown key",
+        ),
+        (lambda s: s.replace('backend = "gaussian"', 'backend = "lasso"'), "[systems.gtsam_gaussian]"),
+        (lambda s: s.replace('system = "ratslam"', 'system = "orbslam"'), "[systems.ratslam] system"),
+        (lambda s: s.replace("count = 2", "count = 0"), "[seeds] count"),
+        (lambda s: s.replace('world = "small_loop"', 'world = "moon_base"'), "[base] world"),
+        (lambda s: s.replace("[axes]", "[axis]"), "axis: unknown key or table"),
+    ],
+)
 def test_spec_errors_are_one_line_naming_file_and_key(tmp_path, edit, message):
     path = _spec(tmp_path, edit(SPEC.format(duration=30.0)))
     with pytest.raises(SweepSpecError) as e:
@@ -96,10 +104,11 @@ def test_same_runs_csv_for_one_worker_two_workers_and_dask(tmp_path):
     worker, two local workers and a Dask LocalCluster of two worker processes."""
     distributed = pytest.importorskip("distributed")
     spec = read_sweep_spec(_spec(tmp_path))
-    outs = [run_sweep(spec, tmp_path / "w1", workers=1, log=lambda line: None),
-            run_sweep(spec, tmp_path / "w2", workers=2, log=lambda line: None)]
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    outs = [
+        run_sweep(spec, tmp_path / "w1", workers=1, log=lambda line: None),
+        run_sweep(spec, tmp_path / "w2", workers=2, log=lambda line: None),
+    ]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         outs.append(run_sweep(spec, tmp_path / "dask", scheduler=cluster.scheduler_address, log=lambda line: None))
     tables = [_rows_without_wall_time(out / "runs.csv") for out in outs]
     # 8 runs on the curves x 3 systems; fp_rate 0.002 is the world's own rate, so that run is the

@@ -60,13 +60,16 @@ def test_synthesised_scene_numbers_need_ground_truth(recorded):
     assert (log.scene_id >= 0).mean() > 0.5
 
 
-@pytest.mark.parametrize("name, text, expected", [
-    ("short.tum", "0 0 0 0 0 0 0 1\n1 1 0 0\n", "line 2: expected 8 columns"),
-    ("order.tum", "0 0 0 0 0 0 0 1\n2 1 0 0 0 0 0 1\n1 2 0 0 0 0 0 1\n", "line 3: t: 1.0 is not after"),
-    ("labels.csv", "t,scene_id\n1.0,3\n0.5,4\n", "line 3: t: 0.5 is not after"),
-    ("labels.csv", "time,scene\n1.0,3\n", "line 1: expected the header 't,scene_id'"),
-    ("labels.csv", "t,scene_id\n1.0,x\n", "line 2: scene_id: not an integer"),
-])
+@pytest.mark.parametrize(
+    "name, text, expected",
+    [
+        ("short.tum", "0 0 0 0 0 0 0 1\n1 1 0 0\n", "line 2: expected 8 columns"),
+        ("order.tum", "0 0 0 0 0 0 0 1\n2 1 0 0 0 0 0 1\n1 2 0 0 0 0 0 1\n", "line 3: t: 1.0 is not after"),
+        ("labels.csv", "t,scene_id\n1.0,3\n0.5,4\n", "line 3: t: 0.5 is not after"),
+        ("labels.csv", "time,scene\n1.0,3\n", "line 1: expected the header 't,scene_id'"),
+        ("labels.csv", "t,scene_id\n1.0,x\n", "line 2: scene_id: not an integer"),
+    ],
+)
 def test_bad_files_are_one_line_and_write_nothing(recorded, tmp_path, name, text, expected):
     d, _ = recorded
     bad = tmp_path / name
@@ -82,8 +85,17 @@ def test_bad_files_are_one_line_and_write_nothing(recorded, tmp_path, name, text
 def test_imported_log_replays_end_to_end(recorded, tmp_path):
     d, _ = recorded
     out = tmp_path / "log.csv"
-    r = _cli("import", "tum", str(d / "odom.tum"), "--gt", str(d / "gt.tum"), "--labels", str(d / "labels.csv"),
-             "--out", str(out))
+    r = _cli(
+        "import",
+        "tum",
+        str(d / "odom.tum"),
+        "--gt",
+        str(d / "gt.tum"),
+        "--labels",
+        str(d / "labels.csv"),
+        "--out",
+        str(out),
+    )
     assert r.returncode == 0, r.stderr
     r = _cli("replay", str(out), "--out", str(tmp_path / "run"), "--quiet", "--no-recording")
     assert r.returncode == 0, r.stderr

@@ -49,20 +49,29 @@ def test_user_world_file_loads(tmp_path):
     assert w.name == "tiny" and w.odometry.bias_deg_s == 1.5 and len(w.obstacles) == 1
 
 
-@pytest.mark.parametrize("edit, field, problem", [
-    (("size = [6.0, 4.0]\n", ""), "size", "missing"),
-    (("speed = 0.3", "speed = 0.3\nwheels = 2"), "robot.wheels", "unknown key"),
-    (("segments = [[3.0, 2.5, 3.0, 4.0]]", "segments = [[3.0, 2.5, 3.0, 2.5]]"), "walls.segments[0]",
-     "zero-length wall"),
-    (("pose = [1.0, 1.0, 0.0]", "pose = [0.1, 1.0, 0.0]"), "start.pose", "overlaps a wall"),
-    (("pose = [1.0, 1.0, 0.0]", "pose = [4.25, 0.75, 0.0]"), "start.pose", "inside obstacle"),
-    (('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "B"], ["A", "C"], ["B", "C"]]'), "route.edges[2]",
-     "crosses a wall"),
-    (("speed = 0.3", "speed = -0.3"), "robot.speed", "must be positive"),
-    (("bias_deg_s = 1.5", 'bias_deg_s = "fast"'), "odometry.bias_deg_s", "must be a number"),
-    (('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "Z"]]'), "route.edges[0]", "unknown node"),
-    (("name = \"tiny\"", "name = \"tiny\"\n[[oops"), "toml", "not valid TOML"),
-])
+@pytest.mark.parametrize(
+    "edit, field, problem",
+    [
+        (("size = [6.0, 4.0]\n", ""), "size", "missing"),
+        (("speed = 0.3", "speed = 0.3\nwheels = 2"), "robot.wheels", "unknown key"),
+        (
+            ("segments = [[3.0, 2.5, 3.0, 4.0]]", "segments = [[3.0, 2.5, 3.0, 2.5]]"),
+            "walls.segments[0]",
+            "zero-length wall",
+        ),
+        (("pose = [1.0, 1.0, 0.0]", "pose = [0.1, 1.0, 0.0]"), "start.pose", "overlaps a wall"),
+        (("pose = [1.0, 1.0, 0.0]", "pose = [4.25, 0.75, 0.0]"), "start.pose", "inside obstacle"),
+        (
+            ('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "B"], ["A", "C"], ["B", "C"]]'),
+            "route.edges[2]",
+            "crosses a wall",
+        ),
+        (("speed = 0.3", "speed = -0.3"), "robot.speed", "must be positive"),
+        (("bias_deg_s = 1.5", 'bias_deg_s = "fast"'), "odometry.bias_deg_s", "must be a number"),
+        (('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "Z"]]'), "route.edges[0]", "unknown node"),
+        (('name = "tiny"', 'name = "tiny"\n[[oops'), "toml", "not valid TOML"),
+    ],
+)
 def test_malformed_world_fails_with_one_line(tmp_path, edit, field, problem):
     old, new = edit
     assert old in GOOD

@@ -5,5 +5,14 @@ from .scenes import SceneLayout
 from .simulator import Simulator, simulate
 from .world import World, WorldFileError, list_worlds, load_world
 
-__all__ = ["ObservationLog", "ObservationLogError", "SceneLayout", "Simulator", "World",
-           "WorldFileError", "list_worlds", "load_world", "simulate"]
+__all__ = [
+    "ObservationLog",
+    "ObservationLogError",
+    "SceneLayout",
+    "Simulator",
+    "World",
+    "WorldFileError",
+    "list_worlds",
+    "load_world",
+    "simulate",
+]

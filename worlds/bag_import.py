@@ -26,8 +26,9 @@ from .world import SceneSpec
 
 ODOMETRY = "nav_msgs/msg/Odometry"
 POSE = "geometry_msgs/msg/PoseStamped"
-INTEGERS = tuple(f"std_msgs/msg/{k}" for k in ("Int8", "Int16", "Int32", "Int64", "UInt8", "UInt16", "UInt32",
-                                                "UInt64"))
+INTEGERS = tuple(
+    f"std_msgs/msg/{k}" for k in ("Int8", "Int16", "Int32", "Int64", "UInt8", "UInt16", "UInt32", "UInt64")
+)
 
 
 class BagImportError(ValueError):
@@ -48,8 +49,7 @@ def _connection(reader, bag, topic: str, types: tuple[str, ...], role: str):
         known = ", ".join(sorted({c.topic for c in reader.connections})) or "none"
         raise BagImportError(f"{bag}: topic {topic} ({role}): not in the bag (topics: {known})")
     if found[0].msgtype not in types:
-        raise BagImportError(f"{bag}: topic {topic} ({role}): type {found[0].msgtype}, expected "
-                             f"{' or '.join(types)}")
+        raise BagImportError(f"{bag}: topic {topic} ({role}): type {found[0].msgtype}, expected {' or '.join(types)}")
     return found
 
 
@@ -70,15 +70,18 @@ def _poses(reader, bag, topic: str, types, role: str, twist: bool = False) -> np
     rows = np.array(rows)
     back = np.flatnonzero(np.diff(rows[:, 0]) <= 0)
     if back.size:
-        raise BagImportError(f"{bag}: topic {topic} ({role}): message {back[0] + 2}: header stamp not after "
-                             f"the previous one (time order)")
+        raise BagImportError(
+            f"{bag}: topic {topic} ({role}): message {back[0] + 2}: header stamp not after "
+            f"the previous one (time order)"
+        )
     return rows
 
 
 def _labels(reader, bag, topic: str) -> np.ndarray:
     rows = []
-    for connection, timestamp, raw in reader.messages(connections=_connection(reader, bag, topic, INTEGERS,
-                                                                             "place labels")):
+    for connection, timestamp, raw in reader.messages(
+        connections=_connection(reader, bag, topic, INTEGERS, "place labels")
+    ):
         rows.append((timestamp * 1e-9, int(reader.deserialize(raw, connection.msgtype).data)))
     if not rows:
         raise BagImportError(f"{bag}: topic {topic} (place labels): no messages")
@@ -86,9 +89,16 @@ def _labels(reader, bag, topic: str) -> np.ndarray:
     return rows[np.argsort(rows[:, 0], kind="stable")]
 
 
-def import_bag(bag, odometry_topic: str, ground_truth_topic: str | None = None, label_topic: str | None = None,
-               synthesise: SceneSpec | None = None, twist: bool = False, label_max_age: float | None = None,
-               seed: int = 0) -> ObservationLog:
+def import_bag(
+    bag,
+    odometry_topic: str,
+    ground_truth_topic: str | None = None,
+    label_topic: str | None = None,
+    synthesise: SceneSpec | None = None,
+    twist: bool = False,
+    label_max_age: float | None = None,
+    seed: int = 0,
+) -> ObservationLog:
     """An observation log from a bag (see the module docstring)."""
     try:
         from rosbags.highlevel import AnyReader
@@ -103,7 +113,7 @@ def import_bag(bag, odometry_topic: str, ground_truth_topic: str | None = None, 
     try:
         reader = AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
-    except Exception as e:                                    # rosbags raises its own error classes
+    except Exception as e:  # rosbags raises its own error classes
         raise BagImportError(f"{bag}: not a readable bag ({type(e).__name__}: {e})") from None
     try:
         odo = _poses(reader, bag, odometry_topic, (ODOMETRY,), "odometry", twist=twist)
@@ -117,5 +127,16 @@ def import_bag(bag, odometry_topic: str, ground_truth_topic: str | None = None, 
         labels = _labels(reader, bag, label_topic) if label_topic is not None else None
     finally:
         reader.close()
-    return assemble_log(t, dt, v, w, gt, labels, synthesise, label_max_age, seed,
-                        "ground truth: synthesised scene numbers need a ground-truth topic", BagImportError)
+    return assemble_log(
+        t,
+        dt,
+        v,
+        w,
+        gt,
+        labels,
+        synthesise,
+        label_max_age,
+        seed,
+        "ground truth: synthesised scene numbers need a ground-truth topic",
+        BagImportError,
+    )

@@ -38,22 +38,29 @@ def segments_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """
 
     def orient(p, q, r):
-        return np.sign((q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1])
-                       - (q[..., 1] - p[..., 1]) * (r[..., 0] - p[..., 0]))
+        return np.sign(
+            (q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (r[..., 0] - p[..., 0])
+        )
 
     def on_segment(p, q, r):  # r collinear with p-q: does it lie within the bounding box?
-        return ((np.minimum(p[..., 0], q[..., 0]) <= r[..., 0] + 1e-12)
-                & (r[..., 0] <= np.maximum(p[..., 0], q[..., 0]) + 1e-12)
-                & (np.minimum(p[..., 1], q[..., 1]) <= r[..., 1] + 1e-12)
-                & (r[..., 1] <= np.maximum(p[..., 1], q[..., 1]) + 1e-12))
+        return (
+            (np.minimum(p[..., 0], q[..., 0]) <= r[..., 0] + 1e-12)
+            & (r[..., 0] <= np.maximum(p[..., 0], q[..., 0]) + 1e-12)
+            & (np.minimum(p[..., 1], q[..., 1]) <= r[..., 1] + 1e-12)
+            & (r[..., 1] <= np.maximum(p[..., 1], q[..., 1]) + 1e-12)
+        )
 
     p1, q1 = a[:, None, 0], a[:, None, 1]
     p2, q2 = b[None, :, 0], b[None, :, 1]
     o1, o2 = orient(p1, q1, p2), orient(p1, q1, q2)
     o3, o4 = orient(p2, q2, p1), orient(p2, q2, q1)
     proper = (o1 != o2) & (o3 != o4) & (o1 != 0) & (o2 != 0) & (o3 != 0) & (o4 != 0)
-    touching = (((o1 == 0) & on_segment(p1, q1, p2)) | ((o2 == 0) & on_segment(p1, q1, q2))
-                | ((o3 == 0) & on_segment(p2, q2, p1)) | ((o4 == 0) & on_segment(p2, q2, q1)))
+    touching = (
+        ((o1 == 0) & on_segment(p1, q1, p2))
+        | ((o2 == 0) & on_segment(p1, q1, q2))
+        | ((o3 == 0) & on_segment(p2, q2, p1))
+        | ((o4 == 0) & on_segment(p2, q2, q1))
+    )
     return proper | touching
 
 

@@ -75,7 +75,7 @@ class ObservationLog:
         return atomic_write_text(path, "\n".join(lines) + "\n")
 
     @classmethod
-    def read_csv(cls, path) -> "ObservationLog":
+    def read_csv(cls, path) -> ObservationLog:
         """Read and validate a log written by anyone (simulator or user)."""
         path = Path(path)
         return _parse(path, read_text(path, ObservationLogError))
@@ -105,8 +105,10 @@ def _parse(path: Path, text: str) -> ObservationLog:
     gt_present = [c for c in GROUND_TRUTH_COLUMNS if c in header]
     if gt_present and len(gt_present) != len(GROUND_TRUTH_COLUMNS):
         absent = [c for c in GROUND_TRUTH_COLUMNS if c not in header]
-        raise ObservationLogError(f"{path}: header: ground-truth columns need all of "
-                                  f"{','.join(GROUND_TRUTH_COLUMNS)}; missing {', '.join(absent)}")
+        raise ObservationLogError(
+            f"{path}: header: ground-truth columns need all of "
+            f"{','.join(GROUND_TRUTH_COLUMNS)}; missing {', '.join(absent)}"
+        )
     data = rows[1:]
     if not data:
         raise ObservationLogError(f"{path}: no observations after the header")

@@ -9,13 +9,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.patches import Rectangle
 
-from .observation_log import publish  # noqa: E402
-from .world import World  # noqa: E402
+from .observation_log import publish
+from .world import World
 
 
 def draw_world(ax, world: World, route: bool = True):
@@ -24,8 +24,11 @@ def draw_world(ax, world: World, route: bool = True):
         ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, color="0.75", zorder=1))
     ax.add_collection(LineCollection(world.walls, colors="k", linewidths=1.5, zorder=3))
     if route:
-        ax.add_collection(LineCollection(world.edge_segments(), colors="tab:blue", linewidths=0.8,
-                                         linestyles="--", alpha=0.6, zorder=2))
+        ax.add_collection(
+            LineCollection(
+                world.edge_segments(), colors="tab:blue", linewidths=0.8, linestyles="--", alpha=0.6, zorder=2
+            )
+        )
         xy = np.array(list(world.nodes.values()))
         ax.plot(xy[:, 0], xy[:, 1], "o", color="tab:blue", ms=3, zorder=2)
     ax.set_xlim(-0.5, world.size[0] + 0.5)
@@ -51,8 +54,9 @@ def save_figure(fig, path) -> Path:
     return path
 
 
-def plot_run(world: World, gt_xy: np.ndarray | None, path, title: str | None = None,
-             false_positive_xy: np.ndarray | None = None) -> Path:
+def plot_run(
+    world: World, gt_xy: np.ndarray | None, path, title: str | None = None, false_positive_xy: np.ndarray | None = None
+) -> Path:
     """Write a PNG of ``world`` with the ground-truth path ``gt_xy`` (N, 2) drawn over it."""
     w, h = world.size
     fig, ax = plt.subplots(figsize=(min(14.0, 2.0 + w * 0.35), min(9.0, 1.5 + h * 0.35 + 0.8)))
@@ -61,8 +65,9 @@ def plot_run(world: World, gt_xy: np.ndarray | None, path, title: str | None = N
         ax.plot(gt_xy[:, 0], gt_xy[:, 1], color="tab:red", lw=0.6, alpha=0.7, label="simulated path")
         ax.plot(*gt_xy[0], "g^", ms=8, label="start")
     if false_positive_xy is not None and len(false_positive_xy):
-        ax.plot(false_positive_xy[:, 0], false_positive_xy[:, 1], "x", color="magenta", ms=4,
-                label="false-positive scene")
+        ax.plot(
+            false_positive_xy[:, 0], false_positive_xy[:, 1], "x", color="magenta", ms=4, label="false-positive scene"
+        )
     ax.set_title(title or world.name)
     ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
     return save_figure(fig, path)

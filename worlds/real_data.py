@@ -29,8 +29,16 @@ from .world import SceneSpec
 
 PLAZA_SETS = {"plaza1": "Plaza1_.mat", "plaza2": "Plaza2_.mat"}
 
-PLAZA_SCENES = SceneSpec(cell_size=2.0, heading_sectors=4, alias_rate=0.1, alias_min_distance=6.0,
-                         blank_rate=0.1, flicker_width=0.2, flicker_prob=0.5, false_positive_rate=0.002)
+PLAZA_SCENES = SceneSpec(
+    cell_size=2.0,
+    heading_sectors=4,
+    alias_rate=0.1,
+    alias_min_distance=6.0,
+    blank_rate=0.1,
+    flicker_width=0.2,
+    flicker_prob=0.5,
+    false_positive_rate=0.002,
+)
 """Default scene model for the outdoor Plaza runs: 2 m cells (the vehicle drives 1-3 m/s), four
 heading sectors, 10% aliasing (cells at least 6 m apart), 10% blank, 0.2% false positives."""
 
@@ -59,22 +67,43 @@ def heading_points_backwards(x, y, theta, min_step: float = 0.05) -> bool:
     return bool(np.mean(np.abs(err) > math.pi / 2) > 0.5)
 
 
-def labelled_log(t, dt, v_trans, v_rot, gt_x, gt_y, gt_theta, scenes: SceneSpec = PLAZA_SCENES,
-                 seed: int = 0) -> ObservationLog:
+def labelled_log(
+    t, dt, v_trans, v_rot, gt_x, gt_y, gt_theta, scenes: SceneSpec = PLAZA_SCENES, seed: int = 0
+) -> ObservationLog:
     """An observation log from recorded odometry and ground truth, with scene numbers synthesised
     from the ground truth by the scene model ``scenes`` (layout over the driven path; flicker
     and false positives drawn with ``seed``)."""
     layout = SceneLayout.over_path(scenes, gt_x, gt_y)
-    obs = observe_scenes(layout, gt_x, gt_y, gt_theta, np.random.default_rng([seed, 2]),
-                         scenes.flicker_width, scenes.flicker_prob, scenes.false_positive_rate)
-    return ObservationLog(t=np.asarray(t, float), dt=np.asarray(dt, float), v_trans=np.asarray(v_trans, float),
-                          v_rot=np.asarray(v_rot, float), scene_id=obs.scene_id,
-                          gt_x=np.asarray(gt_x, float), gt_y=np.asarray(gt_y, float),
-                          gt_theta=np.asarray(gt_theta, float), false_positive=obs.false_positive)
+    obs = observe_scenes(
+        layout,
+        gt_x,
+        gt_y,
+        gt_theta,
+        np.random.default_rng([seed, 2]),
+        scenes.flicker_width,
+        scenes.flicker_prob,
+        scenes.false_positive_rate,
+    )
+    return ObservationLog(
+        t=np.asarray(t, float),
+        dt=np.asarray(dt, float),
+        v_trans=np.asarray(v_trans, float),
+        v_rot=np.asarray(v_rot, float),
+        scene_id=obs.scene_id,
+        gt_x=np.asarray(gt_x, float),
+        gt_y=np.asarray(gt_y, float),
+        gt_theta=np.asarray(gt_theta, float),
+        false_positive=obs.false_positive,
+    )
 
 
-def load_plaza(name: str, scenes: SceneSpec = PLAZA_SCENES, seed: int = 0, fp_rate: float | None = None,
-               duration: float | None = None) -> ObservationLog:
+def load_plaza(
+    name: str,
+    scenes: SceneSpec = PLAZA_SCENES,
+    seed: int = 0,
+    fp_rate: float | None = None,
+    duration: float | None = None,
+) -> ObservationLog:
     """The Plaza data set ``name`` ("plaza1" or "plaza2") as an observation log: the vehicle's
     own dead reckoning as odometry, ground truth for metrics, synthesised scene numbers.
     ``fp_rate`` overrides the scene model's false-positive rate; ``duration`` (s) keeps the start."""

@@ -44,7 +44,7 @@ class SceneLayout:
         self._build(world.scenes, (0.0, 0.0), world.size, world.edge_segments())
 
     @classmethod
-    def over_path(cls, spec, x, y, margin: float = 2.0) -> "SceneLayout":
+    def over_path(cls, spec, x, y, margin: float = 2.0) -> SceneLayout:
         """A layout (:class:`~worlds.world.SceneSpec` ``spec``) over the bounding box, plus
         ``margin`` metres, of the path ``x, y``; aliasing is drawn among the cells seen along the
         path, as along a world's route network (look-alike rectangles are in path coordinates)."""
@@ -124,8 +124,10 @@ class SceneLayout:
     def cell_centres(self):
         """Centres (x, y) of the position cells, one per (ix, iy) in row-major ix*ny+iy order."""
         ix, iy = np.meshgrid(np.arange(self.nx), np.arange(self.ny), indexing="ij")
-        return (self.origin[0] + (ix.ravel() + 0.5) * self.cell_size,
-                self.origin[1] + (iy.ravel() + 0.5) * self.cell_size)
+        return (
+            self.origin[0] + (ix.ravel() + 0.5) * self.cell_size,
+            self.origin[1] + (iy.ravel() + 0.5) * self.cell_size,
+        )
 
     def cell_index(self, x, y, theta):
         """Scene-cell index for poses (vectorised)."""
@@ -147,11 +149,19 @@ class SceneLayout:
                 if 0 <= jx < self.nx and 0 <= jy < self.ny:
                     d = (ix * self.ny + iy) * self.sectors
                     s = (jx * self.ny + jy) * self.sectors
-                    numbers[d:d + self.sectors] = numbers[s:s + self.sectors]
+                    numbers[d : d + self.sectors] = numbers[s : s + self.sectors]
 
 
-def observe_scenes(layout: SceneLayout, x, y, theta, rng: np.random.Generator,
-                   flicker_width: float, flicker_prob: float, fp_rate: float) -> SceneObservations:
+def observe_scenes(
+    layout: SceneLayout,
+    x,
+    y,
+    theta,
+    rng: np.random.Generator,
+    flicker_width: float,
+    flicker_prob: float,
+    fp_rate: float,
+) -> SceneObservations:
     """Scene numbers for a whole trajectory (vectorised over ticks)."""
     x, y, theta = (np.asarray(a, dtype=float) for a in (x, y, theta))
     n = len(x)
@@ -164,8 +174,7 @@ def observe_scenes(layout: SceneLayout, x, y, theta, rng: np.random.Generator,
     dist_y = np.minimum(fy, cs - fy)
     near_x = dist_x <= dist_y
     border = np.where(near_x, dist_x, dist_y)
-    p = flicker_prob * np.clip(1.0 - border / max(flicker_width, 1e-12), 0.0, 1.0) if flicker_width > 0 \
-        else np.zeros(n)
+    p = flicker_prob * np.clip(1.0 - border / max(flicker_width, 1e-12), 0.0, 1.0) if flicker_width > 0 else np.zeros(n)
     u_flicker, u_fp, u_pick = rng.random(n), rng.random(n), rng.random(n)
     flick = u_flicker < p
     step_x = np.where(fx < cs / 2, -cs, cs) * (near_x & flick)

@@ -9,7 +9,7 @@ noise); scene numbers come from the scene model. Ground truth is kept alongside 
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import pymunk
@@ -84,8 +84,14 @@ def odometry_from_poses(poses: np.ndarray, dt: float) -> tuple[np.ndarray, np.nd
     return v_trans, dtheta / dt
 
 
-def simulate(world, duration: float | None = None, seed: int = 0, bias_deg_s: float | None = None,
-             fp_rate: float | None = None, progress: Callable[[int, int], None] | None = None) -> ObservationLog:
+def simulate(
+    world,
+    duration: float | None = None,
+    seed: int = 0,
+    bias_deg_s: float | None = None,
+    fp_rate: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> ObservationLog:
     """Simulate a run and return its observation log with ground-truth columns.
 
     ``world`` is a :class:`World`, a shipped world's name or a path to a world file. ``None``
@@ -117,9 +123,18 @@ def simulate(world, duration: float | None = None, seed: int = 0, bias_deg_s: fl
 
     gt = poses[1:]
     s = world.scenes
-    scenes = observe_scenes(SceneLayout(world), gt[:, 0], gt[:, 1], gt[:, 2], scene_rng,
-                            s.flicker_width, s.flicker_prob, fp)
+    scenes = observe_scenes(
+        SceneLayout(world), gt[:, 0], gt[:, 1], gt[:, 2], scene_rng, s.flicker_width, s.flicker_prob, fp
+    )
     t = dt * np.arange(1, n + 1)
-    return ObservationLog(t=t, dt=np.full(n, dt), v_trans=v_trans, v_rot=v_rot,
-                          scene_id=scenes.scene_id, gt_x=gt[:, 0].copy(), gt_y=gt[:, 1].copy(),
-                          gt_theta=gt[:, 2].copy(), false_positive=scenes.false_positive)
+    return ObservationLog(
+        t=t,
+        dt=np.full(n, dt),
+        v_trans=v_trans,
+        v_rot=v_rot,
+        scene_id=scenes.scene_id,
+        gt_x=gt[:, 0].copy(),
+        gt_y=gt[:, 1].copy(),
+        gt_theta=gt[:, 2].copy(),
+        false_positive=scenes.false_positive,
+    )

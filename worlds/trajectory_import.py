@@ -42,8 +42,9 @@ def _read_rows(path: Path, columns: int, what: str) -> np.ndarray:
             continue
         fields = line.replace(",", " ").split()
         if len(fields) != columns:
-            raise TrajectoryImportError(f"{path}: line {number}: expected {columns} columns ({what}), "
-                                        f"got {len(fields)}")
+            raise TrajectoryImportError(
+                f"{path}: line {number}: expected {columns} columns ({what}), got {len(fields)}"
+            )
         try:
             values = [float(f) for f in fields]
         except ValueError:
@@ -51,8 +52,9 @@ def _read_rows(path: Path, columns: int, what: str) -> np.ndarray:
         if not all(math.isfinite(v) for v in values):
             raise TrajectoryImportError(f"{path}: line {number}: non-finite value in {line!r}")
         if rows and values[0] <= rows[-1][0]:
-            raise TrajectoryImportError(f"{path}: line {number}: t: {values[0]!r} is not after the previous "
-                                        f"line's {rows[-1][0]!r} (time order)")
+            raise TrajectoryImportError(
+                f"{path}: line {number}: t: {values[0]!r} is not after the previous line's {rows[-1][0]!r} (time order)"
+            )
         rows.append(values)
     if len(rows) < 2:
         raise TrajectoryImportError(f"{path}: needs at least 2 rows, got {len(rows)}")
@@ -97,8 +99,9 @@ def read_labels(path) -> np.ndarray:
         if not math.isfinite(t):
             raise TrajectoryImportError(f"{path}: line {number}: t: not finite")
         if rows and t <= rows[-1][0]:
-            raise TrajectoryImportError(f"{path}: line {number}: t: {t!r} is not after the previous line's "
-                                        f"{rows[-1][0]!r} (time order)")
+            raise TrajectoryImportError(
+                f"{path}: line {number}: t: {t!r} is not after the previous line's {rows[-1][0]!r} (time order)"
+            )
         rows.append((t, scene))
     if not rows:
         raise TrajectoryImportError(f"{path}: no labels")
@@ -118,8 +121,10 @@ def odometry_from_tum(poses: np.ndarray):
 
 def _interpolate_poses(poses: np.ndarray, t: np.ndarray, path) -> np.ndarray:
     if t[0] < poses[0, 0] - 1e-9 or t[-1] > poses[-1, 0] + 1e-9:
-        raise TrajectoryImportError(f"{path}: ground truth covers {poses[0, 0]:.3f}-{poses[-1, 0]:.3f} s, "
-                                    f"the odometry ticks {t[0]:.3f}-{t[-1]:.3f} s")
+        raise TrajectoryImportError(
+            f"{path}: ground truth covers {poses[0, 0]:.3f}-{poses[-1, 0]:.3f} s, "
+            f"the odometry ticks {t[0]:.3f}-{t[-1]:.3f} s"
+        )
     x = np.interp(t, poses[:, 0], poses[:, 1])
     y = np.interp(t, poses[:, 0], poses[:, 2])
     yaw = np.unwrap(poses[:, 3])
@@ -138,9 +143,19 @@ def labels_at(labels: np.ndarray, t: np.ndarray, max_age: float, slack: float = 
     return out
 
 
-def assemble_log(t, dt, v, w, gt: np.ndarray | None, labels: np.ndarray | None, synthesise: SceneSpec | None,
-                 label_max_age: float | None, seed: int, gt_missing: str,
-                 error: type[Exception] = TrajectoryImportError) -> ObservationLog:
+def assemble_log(
+    t,
+    dt,
+    v,
+    w,
+    gt: np.ndarray | None,
+    labels: np.ndarray | None,
+    synthesise: SceneSpec | None,
+    label_max_age: float | None,
+    seed: int,
+    gt_missing: str,
+    error: type[Exception] = TrajectoryImportError,
+) -> ObservationLog:
     """The observation log of imported ticks: ``labels`` (m, 2) of ``t, scene_id`` held to the
     ticks, or scene numbers synthesised from the ground truth ``gt`` (n, 3) (``error(gt_missing)``
     is raised when it is absent)."""
@@ -152,17 +167,42 @@ def assemble_log(t, dt, v, w, gt: np.ndarray | None, labels: np.ndarray | None, 
     scene = labels_at(labels, t, age, slack=0.5 * float(np.median(dt)))
     if gt is None:
         return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene)
-    return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene, gt_x=gt[:, 0], gt_y=gt[:, 1],
-                          gt_theta=gt[:, 2], false_positive=np.zeros(len(t), dtype=bool))
+    return ObservationLog(
+        t=t,
+        dt=dt,
+        v_trans=v,
+        v_rot=w,
+        scene_id=scene,
+        gt_x=gt[:, 0],
+        gt_y=gt[:, 1],
+        gt_theta=gt[:, 2],
+        false_positive=np.zeros(len(t), dtype=bool),
+    )
 
 
-def import_tum(odometry, ground_truth=None, labels=None, synthesise: SceneSpec | None = None,
-               label_max_age: float | None = None, seed: int = 0) -> ObservationLog:
+def import_tum(
+    odometry,
+    ground_truth=None,
+    labels=None,
+    synthesise: SceneSpec | None = None,
+    label_max_age: float | None = None,
+    seed: int = 0,
+) -> ObservationLog:
     """An observation log from a TUM odometry trajectory, with place labels from ``labels``
     (a ``t,scene_id`` CSV) or synthesised from ``ground_truth`` by the scene model ``synthesise``."""
     if (labels is None) == (synthesise is None):
         raise TrajectoryImportError("labels: give either a label CSV or ask for synthesised scene numbers")
     t, dt, v, w = odometry_from_tum(read_tum(odometry))
     gt = None if ground_truth is None else _interpolate_poses(read_tum(ground_truth), t, ground_truth)
-    return assemble_log(t, dt, v, w, gt, None if labels is None else read_labels(labels), synthesise,
-                        label_max_age, seed, "ground truth: synthesised scene numbers need a ground-truth trajectory")
+    return assemble_log(
+        t,
+        dt,
+        v,
+        w,
+        gt,
+        None if labels is None else read_labels(labels),
+        synthesise,
+        label_max_age,
+        seed,
+        "ground truth: synthesised scene numbers need a ground-truth trajectory",
+    )

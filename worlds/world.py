@@ -105,8 +105,19 @@ class World:
 
 # --- loading ---------------------------------------------------------------------------------
 
-_TOP_KEYS = {"name", "description", "size", "start", "walls", "obstacles", "route",
-             "robot", "sim", "odometry", "scenes"}
+_TOP_KEYS = {
+    "name",
+    "description",
+    "size",
+    "start",
+    "walls",
+    "obstacles",
+    "route",
+    "robot",
+    "sim",
+    "odometry",
+    "scenes",
+}
 _REQUIRED = ("name", "size", "start", "walls", "route")
 
 
@@ -166,12 +177,15 @@ class _Reader:
         name = label or key
         if v is None:
             self.fail(name, "missing")
-        if not isinstance(v, list) or len(v) != n or any(
-                isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in v):
+        if (
+            not isinstance(v, list)
+            or len(v) != n
+            or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in v)
+        ):
             self.fail(name, f"must be a list of {n} finite numbers, got {v!r}")
         return [float(x) for x in v]
 
-    def table_of(self, key) -> "_Reader":
+    def table_of(self, key) -> _Reader:
         v = self.table.get(key, {})
         if not isinstance(v, dict):
             self.fail(key, f"must be a table, got {v!r}")
@@ -259,11 +273,24 @@ def _parse(path, raw: dict) -> World:
     )
     scenes = _parse_scenes(top)
 
-    world = World(name=name, path=str(path), description=top.string("description", ""),
-                  size=(size[0], size[1]), walls=walls, obstacles=obstacles,
-                  start=(sx, sy, math.radians(sth)), nodes=nodes, edges=edges, route_mode=mode,
-                  tour=tour, tick_rate=tick_rate, duration=duration, robot=robot,
-                  odometry=odometry, scenes=scenes)
+    world = World(
+        name=name,
+        path=str(path),
+        description=top.string("description", ""),
+        size=(size[0], size[1]),
+        walls=walls,
+        obstacles=obstacles,
+        start=(sx, sy, math.radians(sth)),
+        nodes=nodes,
+        edges=edges,
+        route_mode=mode,
+        tour=tour,
+        tick_rate=tick_rate,
+        duration=duration,
+        robot=robot,
+        odometry=odometry,
+        scenes=scenes,
+    )
     _check_consistency(path, world)
     return world
 
@@ -293,8 +320,9 @@ def _parse_walls(top: _Reader):
 
     obs_t = top.table_of("obstacles")
     obs_t.check_keys({"rectangles"})
-    obstacles = np.array([_rect(obs_t, r, f"rectangles[{i}]") for i, r in enumerate(obs_t.list_of("rectangles"))],
-                         dtype=float).reshape(-1, 4)
+    obstacles = np.array(
+        [_rect(obs_t, r, f"rectangles[{i}]") for i, r in enumerate(obs_t.list_of("rectangles"))], dtype=float
+    ).reshape(-1, 4)
     parts += [rectangle_outline(*o) for o in obstacles]
     return np.concatenate(parts).astype(float), obstacles
 
@@ -369,8 +397,12 @@ def _check_consistency(path, w: World):
     start = np.array([w.start[:2]])
     clearance = point_segment_distance(start, w.walls).min()
     if clearance < w.robot.radius:
-        raise WorldFileError(path, "start.pose", f"robot at ({w.start[0]}, {w.start[1]}) overlaps a wall "
-                                                 f"(clearance {clearance:.3f} m < radius {w.robot.radius} m)")
+        raise WorldFileError(
+            path,
+            "start.pose",
+            f"robot at ({w.start[0]}, {w.start[1]}) overlaps a wall "
+            f"(clearance {clearance:.3f} m < radius {w.robot.radius} m)",
+        )
     for o in w.obstacles:
         if o[0] <= w.start[0] <= o[2] and o[1] <= w.start[1] <= o[3]:
             raise WorldFileError(path, "start.pose", f"inside obstacle {o.tolist()}")
@@ -380,8 +412,9 @@ def _check_consistency(path, w: World):
     if crossing.any():
         i, j = np.argwhere(crossing)[0]
         a, b = w.edges[i]
-        raise WorldFileError(path, f"route.edges[{i}]", f"edge {a!r}-{b!r} crosses a wall "
-                                                       f"({w.walls[j].ravel().round(3).tolist()})")
+        raise WorldFileError(
+            path, f"route.edges[{i}]", f"edge {a!r}-{b!r} crosses a wall ({w.walls[j].ravel().round(3).tolist()})"
+        )
     for name, xy in w.nodes.items():
         c = point_segment_distance(np.array([xy]), w.walls).min()
         if c < w.robot.radius:

@@ -1,0 +1,75 @@
+"""Compare the metrics of two run directories (or two trees of them), wall times aside.
+
+    python -m harness.compare_metrics reports /tmp/regenerated
+
+Every ``metrics.json`` under the first directory is compared with the file at the same relative
+path under the second, value by value: numbers must be equal bit for bit, except wall-clock
+measurements (``timing``), ``provenance`` and the effective ``config`` (compared through the
+run's own ``config.toml`` reproduction instead, as its layout may change). Exit status 0 when
+all agree, 1 otherwise, with one line per difference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+IGNORED = frozenset({"timing", "provenance", "config"})
+
+
+def differences(a, b, path: str = "") -> list[str]:
+    """Where two parsed metrics documents differ (ignored keys skipped at any depth)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for key in sorted(set(a) | set(b)):
+            if key in IGNORED:
+                continue
+            if key not in a or key not in b:
+                out.append(f"{path}/{key}: only in {'second' if key not in a else 'first'}")
+                continue
+            out += differences(a[key], b[key], f"{path}/{key}")
+        return out
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return [f"{path}: {len(a)} items vs {len(b)}"]
+        return [d for i, (x, y) in enumerate(zip(a, b)) for d in differences(x, y, f"{path}[{i}]")]
+    if a != b and not (a != a and b != b):  # NaN equals NaN here
+        return [f"{path}: {a!r} vs {b!r}"]
+    return []
+
+
+def compare_trees(first: Path, second: Path) -> list[str]:
+    """Differences between every metrics.json under ``first`` and its counterpart under ``second``."""
+    files = sorted(first.rglob("metrics.json")) if first.is_dir() else [first]
+    if not files:
+        return [f"{first}: no metrics.json found"]
+    out = []
+    for f in files:
+        rel = f.relative_to(first) if first.is_dir() else Path(f.name)
+        g = second / rel if second.is_dir() else second
+        if not g.is_file():
+            out.append(f"{rel}: missing in {second}")
+            continue
+        out += [f"{rel}: {d}" for d in differences(json.loads(f.read_text()), json.loads(g.read_text()))]
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("first", type=Path)
+    parser.add_argument("second", type=Path)
+    args = parser.parse_args(argv)
+    diffs = compare_trees(args.first, args.second)
+    for line in diffs:
+        print(line)
+    print(
+        "identical (wall times, provenance and config aside)" if not diffs else f"{len(diffs)} differences",
+        file=sys.stderr,
+    )
+    return 1 if diffs else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
