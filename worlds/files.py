@@ -53,8 +53,9 @@ def atomic_path(path) -> Iterator[Path]:
     try:
         yield tmp
         _publish(tmp, path)
-    finally:
+    except BaseException:
         tmp.unlink(missing_ok=True)
+        raise
 
 
 @contextmanager
