@@ -39,6 +39,7 @@ import numpy as np
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from baselines.optimizers import batch_lm
 from worlds import simulate
+from worlds.files import write_json
 
 SECONDS_PER_KEYFRAME = 900.0 / 650.0  # small_loop: ~650 keyframes in 15 minutes
 
@@ -257,8 +258,7 @@ def main() -> None:
         )
         print(f"at {common:,} keyframes the previous default's mean update per keyframe is {ratio:.1f}x the default's")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(result, f, indent=2)
+        write_json(args.json, result)
 
 
 if __name__ == "__main__":

@@ -186,7 +186,7 @@ def _cmd_sweep(args) -> None:
 
 
 def _print_run_summary(out: Path) -> None:
-    from .run_dir import read_json
+    from worlds.files import read_json
 
     m = read_json(out / "metrics.json")
     for c in m.get("claims", []):

@@ -13,9 +13,10 @@ all agree, 1 otherwise, with one line per difference.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from worlds.files import read_json
 
 IGNORED = frozenset({"timing", "provenance", "config"})
 WALL_CLOCK_CLAIMS = frozenset({"real_time"})  # claims whose measured value is a wall-clock speed
@@ -55,7 +56,7 @@ def compare_trees(first: Path, second: Path) -> list[str]:
         if not g.is_file():
             out.append(f"{rel}: missing in {second}")
             continue
-        out += [f"{rel}: {d}" for d in differences(json.loads(f.read_text()), json.loads(g.read_text()))]
+        out += [f"{rel}: {d}" for d in differences(read_json(f), read_json(g))]
     return out
 
 

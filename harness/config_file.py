@@ -19,7 +19,7 @@ from pathlib import Path
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
-from worlds.observation_log import atomic_write_text, read_text
+from worlds.files import atomic_write_text, read_text
 
 TABLES = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 

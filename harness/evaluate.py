@@ -30,8 +30,8 @@ def _ate(est: np.ndarray, gt: np.ndarray) -> tuple[float, float]:
     """(ATE RMSE in m, alignment yaw in degrees) after SE(2) alignment."""
     if len(est) < 2:
         return float("nan"), float("nan")
-    _, _, yaw = metrics.align_se2(est[:, :2], gt[:, :2])
-    return float(metrics.ate_rmse(est, gt)), float(np.degrees(yaw))
+    a = metrics.ate(est, gt)
+    return float(a.rmse), float(np.degrees(a.yaw))
 
 
 def summarize_stream(res: StreamResult, log: ObservationLog) -> dict:
@@ -44,7 +44,7 @@ def summarize_stream(res: StreamResult, log: ObservationLog) -> dict:
         "experiences": int(len(rs.experience_poses)),
         "links": int(len(rs.links)),
         "keyframes": int(len(res.gtsam.keyframe_poses)),
-        "loop_closures_proposed": int(len(np.asarray(res.gtsam.loop_closures).reshape(-1, 2))),
+        "loop_closures_proposed": int(len(res.gtsam.loop_closures)),
         "isam2_recoveries": int(res.gtsam.isam2_recoveries),
         "closures_dropped": int(res.gtsam.closures_dropped),
         "timing": _timing(res, log),
@@ -52,7 +52,7 @@ def summarize_stream(res: StreamResult, log: ObservationLog) -> dict:
 
 
 def evaluate_stream(
-    res: StreamResult, log: ObservationLog, gtsam: bool = True, closure_true_distance: float = CLOSURE_TRUE_DISTANCE
+    res: StreamResult, log: ObservationLog, closure_true_distance: float = CLOSURE_TRUE_DISTANCE
 ) -> dict:
     """Every metric of one variant's run (a JSON-ready dictionary); accuracy needs ground truth.
     A loop closure counts as true if its keyframes were within ``closure_true_distance`` metres
@@ -74,21 +74,19 @@ def evaluate_stream(
     exp_ticks = rs.experience_first_tick  # the place each experience stands for
     if len(exp_ticks):
         trajectories["experience_map"] = (rs.experience_poses, gt[exp_ticks])
-    if gtsam:
-        trajectories["gtsam"] = (pg.keyframe_poses, gt[pg.keyframe_ticks])
-        trajectories["gtsam_online"] = (res.gtsam_pose, gt)
+    trajectories["gtsam"] = (pg.keyframe_poses, gt[pg.keyframe_ticks])
+    trajectories["gtsam_online"] = (res.gtsam_pose, gt)
     ate, yaw = {}, {}
     for name, (est, ref) in trajectories.items():
         ate[name], yaw[name] = _ate(est, ref)
 
     rpe = {}
     for name in ("odometry", "ratslam_online", "gtsam_online"):
-        if name in trajectories:
-            t_err, r_err = metrics.rpe(trajectories[name][0], gt, RPE_DISTANCE)
-            rpe[name] = {"translation_m": float(t_err), "rotation_deg": float(np.degrees(r_err))}
+        t_err, r_err = metrics.rpe(trajectories[name][0], gt, RPE_DISTANCE)
+        rpe[name] = {"translation_m": float(t_err), "rotation_deg": float(np.degrees(r_err))}
 
     exp_gt = gt[exp_ticks, :2] if len(exp_ticks) else np.zeros((0, 2))
-    out = {
+    return {
         "ticks": len(log),
         "simulated_s": log.duration,
         "ate": ate,
@@ -100,17 +98,15 @@ def evaluate_stream(
         "multiple_representations": int(metrics.multiple_representations(exp_gt, rs.links, radius=0.5)),
         "hash_collisions": int(metrics.hash_collisions(rs.experience_cells[:, :2], exp_gt, cfg.shape[:2])),
         "timing": _timing(res, log),
+        "loop_closure": _closure_quality(pg, gt, closure_true_distance),
+        "keyframes": int(len(pg.keyframe_poses)),
+        "isam2_recoveries": int(pg.isam2_recoveries),
+        "closures_dropped": int(pg.closures_dropped),
     }
-    if gtsam:
-        out["loop_closure"] = _closure_quality(pg, gt, closure_true_distance)
-        out["keyframes"] = int(len(pg.keyframe_poses))
-        out["isam2_recoveries"] = int(pg.isam2_recoveries)
-        out["closures_dropped"] = int(pg.closures_dropped)
-    return out
 
 
 def _closure_quality(pg, gt: np.ndarray, true_distance: float) -> dict:
-    pairs = np.asarray(pg.loop_closures, dtype=int).reshape(-1, 2)
+    pairs = pg.loop_closures
     if len(pairs) == 0:
         return {"proposed": 0, "accepted": 0, "true": 0, "precision": None, "recall": None}
     ticks = np.asarray(pg.keyframe_ticks)
@@ -133,7 +129,7 @@ def _timing(res: StreamResult, log: ObservationLog) -> dict:
     out = {k: round(v, 4) for k, v in res.wall.items()}
     for system in ("ratslam", "gtsam"):
         wall = res.wall.get(f"{system}_s", 0.0)
-        out[f"{system}_realtime_factor"] = sim / wall if wall > 0 else None
+        out[f"{system}_realtime_factor"] = metrics.realtime_factor(sim, wall)
         out[f"{system}_steps_per_s"] = len(log) / wall if wall > 0 else None
     return out
 
@@ -147,7 +143,8 @@ def room_laps(
     and in the experience map (online pose).
     """
     x0, y0, x1, y1 = room
-    inside = (log.gt_x > x0) & (log.gt_x < x1) & (log.gt_y > y0) & (log.gt_y < y1)
+    gt_x, gt_y = log.ground_truth()[:, :2].T
+    inside = (gt_x > x0) & (gt_x < x1) & (gt_y > y0) & (gt_y < y1)
     edges = np.diff(np.concatenate([[0], inside.astype(int), [0]]))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     visits = [(a, b) for a, b in zip(starts, ends) if b - a > 20][:2]
@@ -164,8 +161,7 @@ def room_laps(
         return np.arctan2(np.sin(ang).mean(0), np.cos(ang).mean(0)) / (2 * np.pi) * n
 
     (a0, a1), (b0, b1) = visits
-    dc = circular_centre(res.peak_cells[a0:a1]) - circular_centre(res.peak_cells[b0:b1])
-    dc = (dc + n / 2) % n - n / 2
+    dc = metrics.wrap_cells(circular_centre(res.peak_cells[a0:a1]) - circular_centre(res.peak_cells[b0:b1]), n)
     de = res.ratslam_pose[a0:a1, :2].mean(0) - res.ratslam_pose[b0:b1, :2].mean(0)
     return {
         "laps_found": 2,

@@ -18,15 +18,15 @@ import numpy as np
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
 from worlds import ObservationLog, World, load_world, simulate
+from worlds.files import atomic_open, write_json, write_tum
 
-from . import metrics as M
 from .config_file import ConfigOverrides, write_config_toml
 from .evaluate import evaluate_stream, room_laps
 from .figures import Figure, Variant, get_figure
 from .progress import Progress
 from .report import write_report
-from .run_dir import provenance, staged_directory, write_json
-from .runner import StreamResult, run_stream
+from .run_dir import provenance, staged_directory
+from .runner import StreamResult, dead_reckon, run_stream
 from .scale import derive_configs
 
 REPORTS_DIR = Path("reports")
@@ -50,15 +50,15 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
     traj.mkdir(parents=True, exist_ok=True)
     t = log.t
     if log.has_ground_truth:
-        M.write_tum(traj / "ground_truth.tum", t, *log.ground_truth().T)
-    M.write_tum(traj / "odometry.tum", t, *res.odometry.T)
-    M.write_tum(traj / "ratslam.tum", t, *res.ratslam_pose.T)
-    M.write_tum(traj / "gtsam.tum", t, *res.gtsam_pose.T)
+        write_tum(traj / "ground_truth.tum", t, *log.ground_truth().T)
+    write_tum(traj / "odometry.tum", t, *res.odometry.T)
+    write_tum(traj / "ratslam.tum", t, *res.ratslam_pose.T)
+    write_tum(traj / "gtsam.tum", t, *res.gtsam_pose.T)
     rs, pg = res.ratslam, res.gtsam
     order = np.argsort(rs.experience_first_tick)
-    M.write_tum(traj / "ratslam_experiences.tum", t[rs.experience_first_tick[order]], *rs.experience_poses[order].T)
+    write_tum(traj / "ratslam_experiences.tum", t[rs.experience_first_tick[order]], *rs.experience_poses[order].T)
     if len(pg.keyframe_ticks):
-        M.write_tum(traj / "gtsam_keyframes.tum", t[pg.keyframe_ticks], *pg.keyframe_poses.T)
+        write_tum(traj / "gtsam_keyframes.tum", t[pg.keyframe_ticks], *pg.keyframe_poses.T)
     maps = {
         "grid_shape": np.array(rs.config.shape),
         "peak_cells": res.peak_cells,
@@ -70,12 +70,12 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
         "links": rs.links,
         "keyframe_poses": pg.keyframe_poses,
         "keyframe_ticks": pg.keyframe_ticks,
-        "loop_closures": np.asarray(pg.loop_closures).reshape(-1, 2),
+        "loop_closures": pg.loop_closures,
         "closure_accepted": np.asarray(pg.closure_accepted, dtype=bool),
     }
     if log.has_ground_truth:
         maps["false_positive"] = log.false_positive
-    with open(run_dir / "maps.npz", "wb") as f:
+    with atomic_open(run_dir / "maps.npz", "wb") as f:
         np.savez_compressed(f, **maps)
 
 
@@ -150,8 +150,11 @@ def _run_variant(
         + "Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml",
     )
     progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress, redraw=redraw)
-    recorder = recorder_factory(run_dir, world, log, rs_cfg) if recorder_factory else None
-    res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
+    odometry = dead_reckon(log)
+    recorder = recorder_factory(run_dir, world, log, rs_cfg, odometry) if recorder_factory else None
+    res = run_stream(
+        log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress, odometry=odometry
+    )
     if recorder:
         recorder.close()
     write_stream_outputs(run_dir, log, res)
@@ -309,8 +312,11 @@ def replay(
             f"Reproduce: ratslam-harness replay {Path(log_path).name} --config config.toml",
         )
         progress = Progress(len(log), f"replay {Path(log_path).name}", float(np.median(log.dt)), enabled=show_progress)
-        recorder = recorder_factory(stage, None, log, rs_cfg) if recorder_factory else None
-        res = run_stream(log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress)
+        odometry = dead_reckon(log)
+        recorder = recorder_factory(stage, None, log, rs_cfg, odometry) if recorder_factory else None
+        res = run_stream(
+            log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress, odometry=odometry
+        )
         if recorder:
             recorder.close()
         write_stream_outputs(stage, log, res)

@@ -9,30 +9,26 @@ Pose-cell quantities are in cell units and wrap around the grid (``grid_shape``)
   1991 without scale). The alignment's yaw is the map's global orientation: across the odometric
   biases of Figs 8-10 only that should differ.
 * :func:`rpe` -- relative pose error over a fixed travelled distance.
-* :func:`snap_mask`, :func:`snap_count` -- pose-cell peak jumps of more than ``k`` cells in one
-  tick (wrap-aware), the paper's "snaps".
-* :func:`multiple_representations` -- one place represented more than once in the experience
-  map; :func:`pose_cell_multiple_representations` -- one place coded by distant pose cells.
+* :func:`snap_mask` -- pose-cell peak jumps of more than ``k`` cells in one tick (wrap-aware),
+  the paper's "snaps", by the pipeline's own definition (:mod:`ratslam.snaps`).
+* :func:`multiple_representations` -- one place represented more than once in the experience map.
 * :func:`hash_collisions` -- one pose-cell region serving places far apart (Fig 4 F).
 * :func:`loop_closure_pr`, :func:`realtime_factor`.
-* :func:`write_tum`, :func:`read_tum` -- TUM trajectory files (``t x y z qx qy qz qw``), so
-  ``evo_ape tum ground_truth.tum ratslam.tum -a`` works on a run directory.
+
+TUM trajectory files are read and written by :mod:`worlds.files`.
 """
 
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
-from worlds.observation_log import publish
+from ratslam.snaps import is_snap
 
 __all__ = [
     "Alignment",
@@ -45,15 +41,11 @@ __all__ = [
     "hash_collisions",
     "loop_closure_pr",
     "multiple_representations",
-    "pose_cell_multiple_representations",
-    "read_tum",
     "realtime_factor",
     "rpe",
-    "snap_count",
     "snap_mask",
     "wrap_angle",
     "wrap_cells",
-    "write_tum",
 ]
 
 
@@ -181,9 +173,10 @@ def rpe(est_xyt, gt_xyt, delta_m: float) -> tuple[float, float]:
 def snap_mask(peaks_cells, grid_shape, k: float) -> np.ndarray:
     """Per tick (N,) bool: the pose-cell peak moved more than ``k`` cells since the previous tick.
 
-    Distance is Euclidean in cell units over all given axes, each difference wrapped into
-    [-n/2, n/2) (the grid is a torus), as ``RatSLAM.snapped`` reports it. The first tick is
-    never a snap. ``peaks_cells`` is ``(N, D)`` and ``grid_shape`` has at least D entries.
+    The definition ``RatSLAM.snapped`` reports (:func:`ratslam.snaps.is_snap`): Euclidean
+    distance in cell units over all given axes, each difference taken the short way round the
+    grid. The first tick is never a snap. ``peaks_cells`` is ``(N, D)`` and ``grid_shape`` has
+    at least D entries.
     """
     p = np.asarray(peaks_cells, dtype=float)
     if p.ndim != 2:
@@ -193,14 +186,8 @@ def snap_mask(peaks_cells, grid_shape, k: float) -> np.ndarray:
         raise ValueError(f"grid_shape: {len(grid_shape)} axes for peaks with {p.shape[1]} columns")
     out = np.zeros(len(p), dtype=bool)
     if len(p) > 1:
-        d = wrap_cells(np.diff(p, axis=0), shape)
-        out[1:] = np.sqrt((d**2).sum(axis=1)) > k
+        out[1:] = is_snap(p[:-1], p[1:], shape, k)
     return out
-
-
-def snap_count(peaks_cells, grid_shape, k: float) -> int:
-    """Number of snaps: ticks whose peak jumped more than ``k`` cells (see :func:`snap_mask`)."""
-    return int(snap_mask(peaks_cells, grid_shape, k).sum())
 
 
 # ----------------------------------------------------------------- multiple representations
@@ -279,26 +266,6 @@ def multiple_representations(exp_gt_xy, links, radius: float = 0.5, min_path_m: 
             far = ~np.isfinite(dist[row, close[:, 1]])
         close = close[far]
     clusters = _clusters(close, n)
-    return MultipleRepresentations(pairs=close, clusters=clusters, n_pairs=len(close), n_clusters=len(clusters))
-
-
-def pose_cell_multiple_representations(
-    exp_cells_xy, exp_gt_xy, grid_shape, radius: float = 0.5, cell_dist: float = 4.0
-) -> MultipleRepresentations:
-    """One place coded by distant pose cells (Fig 4 D, E): experiences within ``radius`` m in
-    ground truth whose (x', y') cells are more than ``cell_dist`` cells apart (wrap-aware)."""
-    c, p = _xy(exp_cells_xy, "exp_cells_xy"), _xy(exp_gt_xy, "exp_gt_xy")
-    if len(c) != len(p):
-        raise ValueError(f"exp_cells_xy and exp_gt_xy: different lengths ({len(c)} vs {len(p)})")
-    close = (
-        np.array(sorted(cKDTree(p).query_pairs(radius)), dtype=np.int64).reshape(-1, 2)
-        if len(p)
-        else np.zeros((0, 2), np.int64)
-    )
-    if len(close):
-        d = wrap_cells(c[close[:, 0]] - c[close[:, 1]], tuple(grid_shape)[:2])
-        close = close[np.hypot(d[:, 0], d[:, 1]) > cell_dist]
-    clusters = _clusters(close, len(p))
     return MultipleRepresentations(pairs=close, clusters=clusters, n_pairs=len(close), n_clusters=len(clusters))
 
 
@@ -396,51 +363,3 @@ def realtime_factor(sim_seconds: float, wall_seconds: float) -> float | None:
         if not (math.isfinite(v) and v >= 0):
             raise ValueError(f"{name} must be a finite non-negative number of seconds, got {v!r}")
     return sim_seconds / wall_seconds if wall_seconds > 0 else None
-
-
-# --------------------------------------------------------------------------------------- TUM
-def write_tum(path, t, x, y, theta) -> Path:
-    """Write a TUM trajectory (``t x y z qx qy qz qw`` per line, z = 0, rotation θ about z).
-
-    Written to a temporary file in the same directory and moved into place (atomic). Times
-    and positions are written with 6 decimals (µs, µm), the quaternion with 9.
-    """
-    t, x, y, theta = (np.asarray(a, dtype=float).ravel() for a in (t, x, y, theta))
-    if not (len(t) == len(x) == len(y) == len(theta)):
-        raise ValueError(
-            f"write_tum: t, x, y, theta have different lengths ({len(t)}, {len(x)}, {len(y)}, {len(theta)})"
-        )
-    path = Path(path)
-    data = np.column_stack(
-        [t, x, y, np.zeros_like(t), np.zeros_like(t), np.zeros_like(t), np.sin(theta / 2), np.cos(theta / 2)]
-    )
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write("# timestamp x y z qx qy qz qw\n")
-            np.savetxt(fh, data, fmt=["%.6f", "%.6f", "%.6f", "%.0f", "%.0f", "%.0f", "%.9f", "%.9f"])
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def read_tum(path) -> tuple[np.ndarray, np.ndarray]:
-    """Read a TUM trajectory: ``(t (N,), poses (N, 3) x, y, θ)``; θ is the quaternion's yaw.
-
-    Lines starting with ``#`` and blank lines are skipped; a malformed file raises
-    ``ValueError`` naming the file and the problem.
-    """
-    path = Path(path)
-    try:
-        data = np.loadtxt(path, comments="#", dtype=float, ndmin=2)
-    except ValueError as e:
-        raise ValueError(f"{path}: not a TUM trajectory ({e})") from None
-    if data.size == 0:
-        return np.zeros(0), np.zeros((0, 3))
-    if data.shape[1] != 8:
-        raise ValueError(f"{path}: TUM lines need 8 columns (t x y z qx qy qz qw), found {data.shape[1]}")
-    qx, qy, qz, qw = data[:, 4:8].T
-    yaw = np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy**2 + qz**2))
-    return data[:, 0].copy(), np.column_stack([data[:, 1], data[:, 2], yaw])

@@ -113,7 +113,7 @@ def panel_gtsam(
     xy = aligned(kf_xy, kf_gt_xy)
     fig, ax = _world_axes(world, "(d) GTSAM pose graph (aligned to ground truth)", np.vstack([xy, kf_gt_xy]))
     ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:purple", lw=0.6, label=f"{len(xy)} keyframes")
-    closures = np.asarray(closures, dtype=int).reshape(-1, 2)
+    closures = np.asarray(closures, dtype=int)
     if len(closures):
         acc = np.asarray(accepted, dtype=bool)
         ax.add_collection(

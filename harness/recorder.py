@@ -457,15 +457,14 @@ class StreamRecorder:
         self.recorder.abort()
 
 
-def recorder_factory(run_dir, world, log, ratslam_config, **options) -> StreamRecorder:
+def recorder_factory(run_dir, world, log, ratslam_config, odometry, **options) -> StreamRecorder:
     """``run_dir/recording.rrd`` for a run of ``log`` (an ``ObservationLog``) in ``world`` (a
-    ``World`` or None) with RatSLAM configured by ``ratslam_config``; ``options`` go to
-    :class:`Recorder`. Odometry is dead-reckoned from the log as the runner does."""
-    from .runner import dead_reckon
-
+    ``World`` or None) with RatSLAM configured by ``ratslam_config``; ``odometry`` (N, 3) is the
+    runner's dead reckoning of ``log`` (:func:`harness.runner.dead_reckon`); ``options`` go to
+    :class:`Recorder`."""
     rec = Recorder(
         Path(run_dir) / "recording.rrd", None if world is None else world.walls, tuple(ratslam_config.shape), **options
     )
     gt = log.ground_truth() if log.has_ground_truth else None
     fp = log.false_positive if log.has_ground_truth else None
-    return StreamRecorder(rec, log.t, dead_reckon(log), gt, fp)
+    return StreamRecorder(rec, log.t, odometry, gt, fp)

@@ -10,11 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from worlds import load_world
-from worlds.observation_log import atomic_write_text
+from worlds.files import atomic_write_text, read_json, read_tum
 
 from . import plots
-from .metrics import read_tum
-from .run_dir import read_json
 
 PANELS = ("a_world.png", "b_pose_cells.png", "c_experience_map.png", "d_gtsam.png")
 

@@ -1,13 +1,16 @@
-"""The run directory contract: staged writes, provenance and metrics.json (the TUM trajectories
-are written by :func:`harness.metrics.write_tum`).
+"""The run directory: staged writes and provenance.
 
 A run is written into a hidden staging directory next to its destination and moved into place
-only when complete, so an interrupted run never leaves a half-written report behind.
+only when complete, so an interrupted run never leaves a half-written report behind. The files
+themselves are written elsewhere, through :mod:`worlds.files`: ``metrics.json``, the TUM
+trajectories and ``maps.npz`` by :mod:`harness.figure_run`, ``config.toml`` by
+:mod:`harness.config_file`, ``report.md`` and the panels by :mod:`harness.report`;
+``recording.rrd`` is streamed by :mod:`harness.recorder` (rerun writes it under its own
+temporary name).
 """
 
 from __future__ import annotations
 
-import json
 import os
 import platform
 import shutil
@@ -17,10 +20,6 @@ from contextlib import contextmanager
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
-
-import numpy as np
-
-from worlds.observation_log import atomic_write_text
 
 PACKAGES = ("ratslam-harness", "numpy", "scipy", "gtsam", "rerun-sdk", "pymunk", "matplotlib")
 
@@ -81,7 +80,7 @@ def git_commit() -> str:
 
 def provenance(**extra) -> dict:
     """Who made this run and with what: package versions, commit, platform, command line."""
-    versions = {}
+    versions: dict[str, str | None] = {}
     for p in PACKAGES:
         try:
             versions[p] = metadata.version(p)
@@ -96,23 +95,3 @@ def provenance(**extra) -> dict:
         "packages": versions,
         **extra,
     }
-
-
-def _json_default(o):
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (tuple, set)):
-        return list(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-
-def write_json(path, data: dict) -> Path:
-    return atomic_write_text(path, json.dumps(data, indent=2, default=_json_default, allow_nan=True) + "\n")
-
-
-def read_json(path) -> dict:
-    return json.loads(Path(path).read_text())

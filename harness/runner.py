@@ -17,9 +17,13 @@ from worlds import ObservationLog
 
 
 def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """Integrate the logged odometry: poses (N, 3) after each tick, each tick's forward motion taken
-    along its midpoint heading (the simulator's odometry model; RatSLAM's experience map and the
-    pose graph integrate the same ticks their own way)."""
+    """Integrate the logged odometry: poses (N, 3) after each tick, each tick's forward motion
+    taken along its midpoint heading -- the inverse of how the simulator derives odometry from
+    its poses (``worlds.simulator.odometry_from_poses``). The systems integrate the same ticks
+    differently: RatSLAM's experience map moves along each tick's end heading
+    (``ExperienceMap.integrate``: each step turned by a further half of the tick's turn φ), the
+    pose graph along the exact arc (``baselines.odometry``: the midpoint chord, shorter by the
+    factor sin(φ/2)/(φ/2))."""
     dtheta = log.v_rot * log.dt
     theta_end = start[2] + np.cumsum(dtheta)
     mid = theta_end - dtheta / 2
@@ -51,13 +55,16 @@ def run_stream(
     gtsam_config: PoseGraphConfig | None = None,
     on_tick=None,
     progress=None,
-    gtsam: bool = True,
+    odometry: np.ndarray | None = None,
 ) -> StreamResult:
-    """Run both systems over ``log``; ``on_tick(k, ratslam, gtsam)`` (e.g. the recorder) sees every tick."""
+    """Run both systems over ``log``; ``on_tick(k, ratslam, gtsam)`` (e.g. the recorder) sees every
+    tick. ``odometry`` is :func:`dead_reckon` of ``log`` when the caller already has it (the
+    recorder draws it too); otherwise it is computed here."""
     rs = RatSLAM(ratslam_config or RatSLAMConfig())
     pg = PoseGraphSLAM(gtsam_config or PoseGraphConfig())
     n = len(log)
-    odometry = dead_reckon(log)
+    if odometry is None:
+        odometry = dead_reckon(log)
     out = {k: np.zeros((n, 3)) for k in ("ratslam_pose", "peak_cells", "peak_metres", "gtsam_pose")}
     snapped = np.zeros(n, dtype=bool)
     rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
@@ -68,24 +75,21 @@ def run_stream(
         t0 = clock()
         rs.step(dt, v, w, scene)
         t1 = clock()
-        if gtsam:
-            pg.step(dt, v, w, scene)
+        pg.step(dt, v, w, scene)
         t2 = clock()
         out["ratslam_pose"][k] = rs.pose
         out["peak_cells"][k] = rs.peak
         out["peak_metres"][k] = rs.peak_metres
         snapped[k] = rs.snapped
-        if gtsam:
-            out["gtsam_pose"][k] = pg.pose
+        out["gtsam_pose"][k] = pg.pose
         if on_tick is not None:
-            on_tick(k, rs, pg if gtsam else None)
+            on_tick(k, rs, pg)
         t3 = clock()
         t_rs, t_pg, t_rec = t_rs + (t1 - t0), t_pg + (t2 - t1), t_rec + (t3 - t2)
         if progress is not None and (k + 1) % report_every == 0:
             progress(k + 1, n)
     t0 = clock()
-    if gtsam:
-        pg.finalize()
+    pg.finalize()
     t_pg += clock() - t0
     return StreamResult(
         t=log.t,

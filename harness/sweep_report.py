@@ -14,13 +14,12 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from worlds.observation_log import atomic_write_text
+from worlds.files import atomic_write_text, read_json
 
 from .sweep_spec import AXES
 
@@ -67,7 +66,7 @@ def result_rows(tasks: list[dict], runs_dir: Path) -> list[dict]:
         path = runs_dir / task["run_id"] / "result.json"
         if not path.is_file():
             continue
-        result = json.loads(path.read_text())["result"]
+        result = read_json(path)["result"]
         cond = task["condition"]
         common = {
             "run_id": task["run_id"],

@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
-from worlds.observation_log import atomic_write_text
+from worlds.files import atomic_write_text, read_json, read_text, write_json
 
 from .sweep_spec import AXES, SweepSpec, system_config
 from .sweep_task import run_one
@@ -188,8 +188,6 @@ def _eta(seconds: float) -> str:
 
 def _write_result(runs_dir: Path, task: dict, result: dict) -> None:
     """``runs/<id>/result.json``: written under a temporary name, then moved into place."""
-    from .run_dir import write_json
-
     final = runs_dir / task["run_id"]
     stage = runs_dir / f".{task['run_id']}.partial-{os.getpid()}"
     stage.mkdir(parents=True, exist_ok=True)
@@ -234,7 +232,7 @@ def run_sweep(
     runs_dir.mkdir(parents=True, exist_ok=True)
     for stale in runs_dir.glob(".*.partial-*"):  # left by a killed sweep
         shutil.rmtree(stale, ignore_errors=True)
-    atomic_write_text(out / "sweep.toml", Path(spec.path).read_text())  # what the runs were made from
+    atomic_write_text(out / "sweep.toml", read_text(spec.path))  # what the runs were made from
     log(
         f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "
         f"{len(spec.systems)} systems each"
@@ -242,7 +240,7 @@ def run_sweep(
     failures = sum(
         1
         for t in unique
-        if t["run_id"] in done and json.loads((runs_dir / t["run_id"] / "result.json").read_text())["result"]["error"]
+        if t["run_id"] in done and read_json(runs_dir / t["run_id"] / "result.json")["result"]["error"]
     )
     if executor is not None:
         start, finished = time.perf_counter(), 0

@@ -13,6 +13,7 @@ from .config import RatSLAMConfig
 from .experience_map import ExperienceMap
 from .local_view import LocalView
 from .pose_cells import PoseCells
+from .snaps import is_snap
 
 _FORMAT = "ratslam-state-2"  # 2: adds the step index of the latest snap
 
@@ -54,9 +55,7 @@ class RatSLAM:
         pc.step(v_trans * dt, (v_rot + self._bias) * dt)
         self.local_view.learn(k, pc)
         new_peak = pc.peak
-        d = np.abs(new_peak - old_peak)
-        d = np.minimum(d, self._grid - d)  # wrap-aware jump in cells
-        self._snapped = bool(math.sqrt(float(d @ d)) > self._config.snap_cells)
+        self._snapped = bool(is_snap(old_peak, new_peak, self._grid, self._config.snap_cells))
         if scene_id == self._last_scene:
             self._scene_run += 1
         else:
@@ -109,7 +108,8 @@ class RatSLAM:
 
     @property
     def snapped(self) -> bool:
-        """Whether this tick's peak jumped by more than ``config.snap_cells`` cells (wrap-aware)."""
+        """Whether this tick's peak jumped by more than ``config.snap_cells`` cells (wrap-aware;
+        :func:`ratslam.snaps.is_snap`)."""
         return self._snapped
 
     @property

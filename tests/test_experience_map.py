@@ -42,7 +42,7 @@ def test_zone_of_influence_eqs_2_to_9():
 
 
 def test_sum_energy_matches_on_heading_alone_product_does_not():
-    """DESIGN trap: eq 9's sum is positive when only θ' is close; the product form is not."""
+    """ARCHITECTURE.md trap: eq 9's sum is positive when only θ' is close; the product form is not."""
     cells = [(40.0, 40.0, 9.0)]
     far_peak = np.array([10.0, 10.0, 9.0])  # metres away, same heading
     e_sum = make_map(CFG.replace(energy="sum"), [(0, 0, 0)], cells=cells).energy(far_peak, 0)
@@ -235,7 +235,7 @@ def test_correction_residuals_shrink_geometrically_after_loop_closure():
 
 
 def test_printed_correction_diverges_where_experiences_have_many_links():
-    """DESIGN trap: the printed sums overshoot at experiences with more than two links."""
+    """ARCHITECTURE.md trap: the printed sums overshoot at experiences with more than two links."""
     em, p = _square_loop_map("printed")
     # extra (consistent) links between every experience and the one three ahead: degree 4
     n = em.size

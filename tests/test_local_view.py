@@ -25,7 +25,7 @@ def settled(cell=(30, 30, 0)):
 
 
 def test_scene_minus_one_is_not_a_view():
-    """DESIGN trap: -1 (nothing recognisable) creates no view cell and injects nothing."""
+    """ARCHITECTURE.md trap: -1 (nothing recognisable) creates no view cell and injects nothing."""
     lv, pc = LocalView(CFG), settled()
     for k in range(50):
         assert lv.inject(-1, k, pc) == -1
@@ -60,7 +60,7 @@ def test_hebbian_association_follows_the_active_pose_cells():
 
 def test_familiar_view_injects_only_old_associations():
     """A view injects δ V β through associations at least view_min_age_ticks old; a recently
-    learnt view does not inject (DESIGN trap: recently learnt views must not pin the packet)."""
+    learnt view does not inject (ARCHITECTURE.md trap: recently learnt views must not pin the packet)."""
     lv, pc = LocalView(CFG), settled()
     lv.inject(3, 0, pc)
     lv.learn(0, pc)
@@ -107,7 +107,7 @@ def _straight_run(slam, scenes, v=0.3):
 
 
 def test_a_scene_in_view_for_a_while_does_not_pin_the_packet():
-    """DESIGN trap: a scene lasting ~1 m (23 ticks) must not drag the packet back to where the
+    """ARCHITECTURE.md trap: a scene lasting ~1 m (23 ticks) must not drag the packet back to where the
     view began. First lap: scenes change every 23 ticks along a straight corridor; second pass
     (after the associations are old) sees the same sequence again from the same place. The
     packet keeps moving at v*t on both passes (within one cell)."""

@@ -1,4 +1,4 @@
-"""Metrics: hand-computed cases, edge cases, and TUM files read back against the arrays."""
+"""Metrics: hand-computed cases, edge cases, and ATE from TUM files read back against the arrays."""
 
 import math
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from harness import metrics as M
+from worlds.files import read_tum, write_tum
 
 
 def rot(a):
@@ -110,7 +111,6 @@ def test_snaps_wrap_aware_by_hand():
     only the last exceeds k = 3."""
     peaks = np.array([[0.0], [1.0], [9.0], [5.0]])
     np.testing.assert_array_equal(M.snap_mask(peaks, (10,), 3), [False, False, False, True])
-    assert M.snap_count(peaks, (10,), 3) == 1
 
 
 def test_snaps_euclidean_over_three_axes():
@@ -160,16 +160,6 @@ def test_multiple_representations_empty_and_bad_links():
         M.multiple_representations(np.zeros((2, 2)), [[0, 2]])
 
 
-def test_pose_cell_multiple_representations_by_hand():
-    """Places 0.3 m apart coded 10 cells apart (x' 2 vs 12, grid 40) count; 2 vs 39 is 3 cells
-    across the wrap and does not."""
-    gt = np.array([[0, 0], [0.3, 0], [5, 5], [5.2, 5]], dtype=float)
-    cells = np.array([[2, 2], [12, 2], [2, 20], [39, 20]], dtype=float)
-    res = M.pose_cell_multiple_representations(cells, gt, (40, 40), radius=0.5, cell_dist=4)
-    np.testing.assert_array_equal(res.pairs, [[0, 1]])
-    assert int(res) == 1
-
-
 # ---------------------------------------------------------------------------- hash collisions
 def test_hash_collisions_by_hand():
     """Grid 20 x 20, 4 x 4-cell tiles. Experiences 0, 1 share tile (0, 0) and are 10 m apart: a
@@ -211,27 +201,7 @@ def test_realtime_factor():
         M.realtime_factor(900.0, -1.0)
 
 
-# ------------------------------------------------------------------------------------ TUM
-def test_tum_round_trip(tmp_path):
-    gt = loop()
-    t = np.arange(len(gt)) / 7.0
-    path = M.write_tum(tmp_path / "gt.tum", t, *gt.T)
-    first = path.read_text().splitlines()[1].split()
-    assert len(first) == 8 and first[3] == "0"
-    t2, p2 = M.read_tum(path)
-    np.testing.assert_allclose(t2, t, atol=1e-6)
-    np.testing.assert_allclose(p2[:, :2], gt[:, :2], atol=1e-6)
-    np.testing.assert_allclose(M.wrap_angle(p2[:, 2] - gt[:, 2]), 0, atol=1e-8)
-    assert not list(tmp_path.glob(".*tmp"))  # no temporary left behind
-
-
-def test_read_tum_rejects_bad_file(tmp_path):
-    bad = tmp_path / "bad.tum"
-    bad.write_text("0 1 2 3\n")
-    with pytest.raises(ValueError, match="8 columns"):
-        M.read_tum(bad)
-
-
+# ------------------------------------------------------------------------------ TUM files
 def independent_ate(t_est, p_est, t_gt, p_gt):
     """ATE as evo computes it, written independently: associate by timestamp, closed-form 2-D
     rotation from centred cross/dot sums, then position RMSE."""
@@ -253,10 +223,10 @@ def test_ate_from_tum_files_matches_arrays(tmp_path):
     est[:, :2] = gt[:, :2] @ rot(0.4).T + [1, -2] + rng.normal(0, 0.05, (len(gt), 2))
     est[:, 2] = gt[:, 2] + 0.4
     t = np.arange(len(gt)) / 7.0
-    M.write_tum(tmp_path / "ground_truth.tum", t, *gt.T)
-    M.write_tum(tmp_path / "ratslam.tum", t[::3], *est[::3].T)  # subset: association matters
+    write_tum(tmp_path / "ground_truth.tum", t, *gt.T)
+    write_tum(tmp_path / "ratslam.tum", t[::3], *est[::3].T)  # subset: association matters
     from_arrays = M.ate(est[::3], gt[::3])
-    rmse, ang = independent_ate(*M.read_tum(tmp_path / "ratslam.tum"), *M.read_tum(tmp_path / "ground_truth.tum"))
+    rmse, ang = independent_ate(*read_tum(tmp_path / "ratslam.tum"), *read_tum(tmp_path / "ground_truth.tum"))
     assert rmse == pytest.approx(from_arrays.rmse, abs=1e-5)
     assert ang == pytest.approx(from_arrays.yaw, abs=1e-5)
     assert from_arrays.yaw == pytest.approx(-0.4, abs=0.02)

@@ -68,7 +68,7 @@ def test_write_is_atomic(tmp_path, monkeypatch):
     def broken_replace(src, dst):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("worlds.observation_log.os.replace", broken_replace)
+    monkeypatch.setattr("worlds.files.os.replace", broken_replace)
     with pytest.raises(KeyboardInterrupt):
         log.write_csv(target)
     assert list(tmp_path.iterdir()) == []

@@ -227,7 +227,7 @@ def test_peak_is_circular_weighted_mean_across_the_wrap():
 
 
 def test_single_weak_injection_does_not_move_the_peak():
-    """One tick of view-sized injection far from the packet must not move the peak (DESIGN:
+    """One tick of view-sized injection far from the packet must not move the peak (ARCHITECTURE.md:
     a packet sharp enough that one tick of an aliased or false view cannot move it)."""
     pc = settled(cell=(30, 30, 9))
     before = pc.peak

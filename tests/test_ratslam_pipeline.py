@@ -79,7 +79,7 @@ def test_read_access_api_shapes():
 
 
 def test_only_blank_scenes_give_no_experiences_and_pure_odometry():
-    """DESIGN trap: -1 is not a view; with nothing recognisable the map stays empty and the pose
+    """ARCHITECTURE.md trap: -1 is not a view; with nothing recognisable the map stays empty and the pose
     is integrated odometry."""
     slam = RatSLAM()
     x = y = th = 0.0
@@ -146,6 +146,33 @@ def test_strong_familiar_view_far_from_the_packet_produces_a_snap():
     assert np.abs(wrapped_diff(slam.peak, expected)).max() < 2.0
 
 
+def test_snapped_is_the_snap_metric_across_the_wrap():
+    """On a 24 x 24 grid the corridor run crosses the grid's edges and snaps once: the
+    pipeline's per-tick ``snapped`` equals ``harness.metrics.snap_mask`` of its peak path, and
+    both count a crossing of an edge by its short way round (a naive difference would make every
+    crossing a snap)."""
+    from harness.metrics import snap_mask
+
+    cfg = RatSLAMConfig(nx=24, ny=24)
+    slam = RatSLAM(cfg)
+    step = slam.step
+    peaks, snapped = [slam.peak], []
+
+    def recording_step(*args):
+        step(*args)
+        peaks.append(slam.peak)
+        snapped.append(slam.snapped)
+
+    slam.step = recording_step  # type: ignore[method-assign]
+    learn_corridor_then_move_away(slam)
+    for s in CORRIDOR:
+        slam.step(DT, 0.3, 0.0, s)
+    p = np.array(peaks)
+    crossings = (np.abs(np.diff(p, axis=0)) > np.array(cfg.shape) / 2).any(axis=1)
+    assert sum(snapped) >= 1 and (crossings & ~np.array(snapped)).sum() >= 3
+    np.testing.assert_array_equal(snap_mask(p, cfg.shape, cfg.snap_cells)[1:], snapped)
+
+
 @pytest.mark.parametrize("settle", [0, 50])
 def test_experience_map_waits_for_the_peak_to_settle_after_a_snap(settle):
     """A map that follows a flipping peak links far-apart places, so after a snap the map acts
@@ -168,7 +195,7 @@ def test_experience_map_waits_for_the_peak_to_settle_after_a_snap(settle):
 
 
 def test_single_false_positive_tick_does_not_move_the_peak():
-    """DESIGN: one tick of an aliased/false-positive view must not move the peak."""
+    """ARCHITECTURE.md: one tick of an aliased/false-positive view must not move the peak."""
     slam = RatSLAM()
     for s in np.repeat(np.arange(10, 18), 23):
         slam.step(DT, 0.3, 0.0, s)

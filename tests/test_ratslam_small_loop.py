@@ -115,7 +115,7 @@ def test_odometric_bias_experience_map_beats_odometry(fp_rate):
 
 @pytest.mark.slow
 def test_printed_correction_diverges_on_the_loop():
-    """DESIGN trap: eqs 12-14 as printed (sums, α = 0.5) overshoot where an experience has more
+    """ARCHITECTURE.md trap: eqs 12-14 as printed (sums, α = 0.5) overshoot where an experience has more
     than two links; on the loop the map blows up within the run (measured: non-finite poses)."""
     with np.errstate(all="ignore"):
         slam, _, _, _ = run(1.5, 0.0, correction="printed")
@@ -125,7 +125,7 @@ def test_printed_correction_diverges_on_the_loop():
 
 @pytest.mark.slow
 def test_sum_energy_without_view_confirmation_collapses_under_false_positives():
-    """DESIGN trap: eq 9's sum lets a one-tick false positive switch to an experience metres
+    """ARCHITECTURE.md trap: eq 9's sum lets a one-tick false positive switch to an experience metres
     away on heading alone. With the paper's behaviour (sum energy, views act on their first
     tick) 1% per-tick false positives collapse the map (measured 2.20 m ATE under the 3 deg/s
     path-integration bias); the default (product energy, views confirmed on a second tick)

@@ -275,7 +275,7 @@ def test_bad_config_is_one_line_value_error(tmp_path):
 def real_run(tmp_path_factory):
     """60 s of the small loop through both real systems, recorded by the runner's callback."""
     from harness.recorder import recorder_factory
-    from harness.runner import run_stream
+    from harness.runner import dead_reckon, run_stream
     from ratslam import RatSLAMConfig
     from worlds import load_world, simulate
 
@@ -283,8 +283,10 @@ def real_run(tmp_path_factory):
     log = simulate(world, duration=60.0, seed=0, fp_rate=0.01)
     out = tmp_path_factory.mktemp("real")
     cfg = RatSLAMConfig()
-    stream = recorder_factory(out, world, log, cfg)
-    res = run_stream(log, cfg, on_tick=stream.on_tick)
+    odometry = dead_reckon(log)
+    stream = recorder_factory(out, world, log, cfg, odometry)
+    res = run_stream(log, cfg, on_tick=stream.on_tick, odometry=odometry)
+    assert res.odometry is odometry  # dead-reckoned once, for the runner and the recorder
     path = stream.close()
     return path, log, res
 

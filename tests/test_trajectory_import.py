@@ -7,9 +7,9 @@ import sys
 import numpy as np
 import pytest
 
-from harness.metrics import write_tum
 from harness.runner import dead_reckon
 from worlds import simulate
+from worlds.files import write_tum
 from worlds.trajectory_import import TrajectoryImportError, import_tum, labels_at
 
 

@@ -1,4 +1,5 @@
-"""Simulated worlds: world files, the pymunk simulator, the scene model and the observation log."""
+"""Simulated worlds: world files, the pymunk simulator, the scene model and the observation log;
+:mod:`worlds.files` reads and writes files (atomically) for this package and the harness."""
 
 from .observation_log import ObservationLog, ObservationLogError
 from .scenes import SceneLayout

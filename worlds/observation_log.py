@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import csv
 import io
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .files import atomic_write_text, read_text
 
 REQUIRED_COLUMNS = ("t", "dt", "v_trans", "v_rot", "scene_id")
 GROUND_TRUTH_COLUMNS = ("gt_x", "gt_y", "gt_theta", "false_positive")
@@ -55,7 +55,7 @@ class ObservationLog:
 
     def ground_truth(self) -> np.ndarray:
         """Ground-truth poses (N, 3): x, y, theta. Raises if the log has none."""
-        if not self.has_ground_truth:
+        if self.gt_x is None or self.gt_y is None or self.gt_theta is None:
             raise ValueError("this observation log has no ground-truth columns")
         return np.column_stack([self.gt_x, self.gt_y, self.gt_theta])
 
@@ -120,10 +120,18 @@ def _parse(path: Path, text: str) -> ObservationLog:
         for h, cell in zip(header, row):
             values[h][i] = _parse_cell(path, line, h, cell.strip())
     _check_semantics(path, values)
-    gt = {c: values.get(c) for c in GROUND_TRUTH_COLUMNS}
-    if gt["false_positive"] is not None:
-        gt["false_positive"] = gt["false_positive"].astype(bool)
-    return ObservationLog(**{c: values[c] for c in REQUIRED_COLUMNS}, **gt)
+    fp = values.get("false_positive")
+    return ObservationLog(
+        t=values["t"],
+        dt=values["dt"],
+        v_trans=values["v_trans"],
+        v_rot=values["v_rot"],
+        scene_id=values["scene_id"],
+        gt_x=values.get("gt_x"),
+        gt_y=values.get("gt_y"),
+        gt_theta=values.get("gt_theta"),
+        false_positive=None if fp is None else fp.astype(bool),
+    )
 
 
 def _parse_cell(path, line, column, cell):
@@ -158,39 +166,3 @@ def _check_semantics(path, v):
         bad = np.flatnonzero((v["false_positive"] != 0) & (v["false_positive"] != 1))
         if len(bad):
             fail(bad[0], "false_positive", f"must be 0 or 1, got {v['false_positive'][bad[0]]}")
-
-
-def publish(tmp, path) -> None:
-    """Move a finished temporary file onto ``path`` with the usual permissions (``mkstemp``
-    creates files readable only by their owner)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    os.replace(tmp, path)
-
-
-def read_text(path, error: type[Exception]) -> str:
-    """A text file's contents; a missing or unreadable file raises ``error`` with one line."""
-    path = Path(path)
-    try:
-        return path.read_text()
-    except FileNotFoundError:
-        raise error(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise error(f"{path}: cannot be read ({e})") from None
-
-
-def atomic_write_text(path, text: str) -> Path:
-    """Write ``text`` to ``path`` via a temporary file in the same directory and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        publish(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -14,7 +12,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.patches import Rectangle
 
-from .observation_log import publish
+from .files import atomic_path
 from .world import World
 
 
@@ -22,11 +20,11 @@ def draw_world(ax, world: World, route: bool = True):
     """Walls (black), obstacles (grey) and optionally the route network (dashed) onto ``ax``."""
     for x0, y0, x1, y1 in world.obstacles:
         ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, color="0.75", zorder=1))
-    ax.add_collection(LineCollection(world.walls, colors="k", linewidths=1.5, zorder=3))
+    ax.add_collection(LineCollection(list(world.walls), colors="k", linewidths=1.5, zorder=3))
     if route:
         ax.add_collection(
             LineCollection(
-                world.edge_segments(), colors="tab:blue", linewidths=0.8, linestyles="--", alpha=0.6, zorder=2
+                list(world.edge_segments()), colors="tab:blue", linewidths=0.8, linestyles="--", alpha=0.6, zorder=2
             )
         )
         xy = np.array(list(world.nodes.values()))
@@ -39,19 +37,13 @@ def draw_world(ax, world: World, route: bool = True):
 
 
 def save_figure(fig, path) -> Path:
-    """Save a matplotlib figure atomically (temporary file, then rename) and close it."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
+    """Save a matplotlib figure atomically (see :mod:`worlds.files`) and close it."""
     try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight")
-        publish(tmp, path)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    return Path(path)
 
 
 def plot_run(

@@ -23,8 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .files import read_text
 from .geometry import wrap_angle
-from .observation_log import ObservationLog, read_text
+from .observation_log import ObservationLog
 from .real_data import labelled_log
 from .world import SceneSpec
 

@@ -1,0 +1,23 @@
+"""Snaps: the pose-cell activity peak jumping further than ``snap_cells`` in one tick.
+
+Defined once here; :class:`ratslam.RatSLAM` reports ``snapped`` with it and
+``harness.metrics.snap_mask`` counts snaps over a stored peak path with it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def peak_jump(old_peak, new_peak, grid_shape) -> np.ndarray:
+    """Distance (cells) between peaks ``(..., D)``: Euclidean over the D axes, each difference
+    taken the short way round the torus of ``grid_shape`` (D,) cells."""
+    n = np.asarray(grid_shape, dtype=float)
+    d = np.mod(np.abs(np.asarray(new_peak, dtype=float) - np.asarray(old_peak, dtype=float)), n)
+    d = np.minimum(d, n - d)
+    return np.sqrt((d * d).sum(axis=-1))
+
+
+def is_snap(old_peak, new_peak, grid_shape, snap_cells: float) -> np.ndarray:
+    """Whether the peak moved more than ``snap_cells`` cells (:func:`peak_jump`), per row."""
+    return peak_jump(old_peak, new_peak, grid_shape) > snap_cells
