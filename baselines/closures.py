@@ -3,14 +3,14 @@
 A keyframe carries the scene number seen on its tick (-1, "nothing
 recognisable", is never a scene).  When a new keyframe's scene number was seen
 at earlier keyframes, those earlier keyframes are candidates for a closure,
-except the ones the robot left less than ``closure_min_travel`` metres of
+except the ones the robot left less than ``closures.min_travel_m`` metres of
 odometric path ago (the same visit, already tied by odometry).  The most recent
-``closure_candidate_window`` sightings are ranked by their distance to the new
-keyframe in the current estimate and the nearest ``closure_max_candidates`` are
+``closures.candidate_window`` sightings are ranked by their distance to the new
+keyframe in the current estimate and the nearest ``closures.max_candidates`` are
 linked (ties go to the earlier keyframe).  Optionally, sightings within a
 tolerance of the nearest count as equally near and the most recent
-(``closure_recent_tolerance``) or the earliest (``closure_early_tolerance``) of
-them is linked (a positive ``closure_recent_tolerance`` takes precedence); when
+(``closures.recent_tolerance_m``) or the earliest (``closures.early_tolerance_m``) of
+them is linked (a positive ``closures.recent_tolerance_m`` takes precedence); when
 preferring the earliest, the window holds the earliest
 half-window and the most recent half-window of sightings.
 """

@@ -23,27 +23,27 @@ IDENTITY = gtsam.Pose2()
 
 def robust_kernel(config: PoseGraphConfig):
     """The configured gtsam M-estimator (kernel width in Mahalanobis units)."""
-    k = config.kernel_width
+    k = config.backend.kernel_width
     m = gtsam.noiseModel.mEstimator
-    if config.estimator == "cauchy":
+    if config.backend.estimator == "cauchy":
         return m.Cauchy.Create(k)
-    if config.estimator == "huber":
+    if config.backend.estimator == "huber":
         return m.Huber.Create(k)
-    if config.estimator == "dcs":
+    if config.backend.estimator == "dcs":
         return m.DCS.Create(k)
     return m.GemanMcClure.Create(k)
 
 
 def closure_gaussian(config: PoseGraphConfig):
     """Diagonal Gaussian noise of a scene-match loop closure (x, y, theta)."""
-    s_xy, s_th = config.closure_sigma_xy, config.closure_sigma_theta
+    s_xy, s_th = config.closures.sigma_xy_m, config.closures.sigma_theta_rad
     return gtsam.noiseModel.Diagonal.Sigmas(np.array([s_xy, s_xy, s_th]))
 
 
 def closure_noise(config: PoseGraphConfig):
     """Noise model put on closure factors: robust-wrapped only for the robust back-end."""
     gaussian = closure_gaussian(config)
-    if config.backend == "robust":
+    if config.backend.kind == "robust":
         return gtsam.noiseModel.Robust.Create(robust_kernel(config), gaussian)
     return gaussian
 
@@ -68,7 +68,8 @@ def pose2_logmap_between(poses_i: np.ndarray, poses_j: np.ndarray) -> np.ndarray
 
 def closure_mahalanobis(config: PoseGraphConfig, poses_i: np.ndarray, poses_j: np.ndarray) -> np.ndarray:
     """Mahalanobis norm of closure residuals Log(X_i^-1 X_j) for (L, 3) pose arrays."""
-    sig = np.array([config.closure_sigma_xy, config.closure_sigma_xy, config.closure_sigma_theta])
+    c = config.closures
+    sig = np.array([c.sigma_xy_m, c.sigma_xy_m, c.sigma_theta_rad])
     return np.linalg.norm(pose2_logmap_between(poses_i, poses_j) / sig, axis=1)
 
 

@@ -15,22 +15,22 @@ def make_isam2(config: PoseGraphConfig, factorization: str = "CHOLESKY") -> gtsa
     "CHOLESKY", gtsam's default, or "QR", slower but robust to ill-conditioning)."""
     params = gtsam.ISAM2Params()
     params.setFactorization(factorization)
-    if config.estimate_yaw_bias:
+    if config.yaw_bias.estimate:
         # Per-variable thresholds: poses ('x') as configured, the bias ('b') much finer,
         # since a bias delta of 0.1 rad/s would be a 6 deg/s error.
         thresholds = gtsam.ISAM2ThresholdMap()
-        thresholds.insert(("x", np.full(3, config.isam2_relinearize_threshold)))
-        thresholds.insert(("b", np.array([config.isam2_bias_relinearize_threshold])))
+        thresholds.insert(("x", np.full(3, config.optimisation.isam2_relinearize_threshold)))
+        thresholds.insert(("b", np.array([config.yaw_bias.isam2_relinearize_threshold_rad_s])))
         params.setRelinearizeThreshold(thresholds)
     else:
-        params.setRelinearizeThreshold(config.isam2_relinearize_threshold)
+        params.setRelinearizeThreshold(config.optimisation.isam2_relinearize_threshold)
     params.relinearizeSkip = config.relinearize_skip
     return gtsam.ISAM2(params)
 
 
 def _lm_params(config: PoseGraphConfig) -> gtsam.LevenbergMarquardtParams:
     params = gtsam.LevenbergMarquardtParams()
-    params.setMaxIterations(config.batch_max_iterations)
+    params.setMaxIterations(config.optimisation.batch_max_iterations)
     return params
 
 
@@ -52,9 +52,9 @@ def run_gnc(
     Returns the optimised values and one weight per factor of ``graph``.
     """
     params = gtsam.GncLMParams(_lm_params(config))
-    params.setLossType(gtsam.GncLossType.TLS if config.gnc_loss == "tls" else gtsam.GncLossType.GM)
+    params.setLossType(gtsam.GncLossType.TLS if config.backend.gnc_loss == "tls" else gtsam.GncLossType.GM)
     params.setKnownInliers(list(known_inliers))
     optimizer = gtsam.GncLMOptimizer(graph, initial, params)
-    optimizer.setInlierCostThresholdsAtProbability(config.gnc_inlier_probability)
+    optimizer.setInlierCostThresholdsAtProbability(config.backend.gnc_inlier_probability)
     result = optimizer.optimize()
     return result, np.asarray(optimizer.getWeights(), dtype=float).ravel()

@@ -1,12 +1,12 @@
 """GTSAM Pose2 pose-graph SLAM fed the same stream as RatSLAM.
 
 Per tick: integrate the wheel odometry on SE(2); take a keyframe every
-``keyframe_distance`` metres, ``keyframe_angle`` radians or at a scene onset;
+``keyframes.distance_m`` metres, ``keyframes.angle_rad`` radians or at a scene onset;
 join consecutive keyframes by an odometry between-factor; when a keyframe's scene
 number was seen at earlier keyframes, add a loop-closure factor to the nearest
 such sighting (closures are handed to iSAM2 a few keyframes at a time, at once if
 one contradicts the estimate; keyframes with only odometry wait for the next
-update, up to ``odometry_batch_keyframes``); optimise online with iSAM2 (robust,
+update, up to ``optimisation.odometry_batch_keyframes``); optimise online with iSAM2 (robust,
 Gaussian or GNC-verified closures).  The SLAM never sees ground truth.
 """
 
@@ -55,13 +55,13 @@ class PoseGraphSLAM:
         # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
         self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
         self._scenes = SceneIndex(
-            cfg.closure_min_travel,
-            cfg.closure_max_candidates,
-            cfg.closure_candidate_window,
-            cfg.closure_recent_tolerance,
-            cfg.closure_early_tolerance,
+            cfg.closures.min_travel_m,
+            cfg.closures.max_candidates,
+            cfg.closures.candidate_window,
+            cfg.closures.recent_tolerance_m,
+            cfg.closures.early_tolerance_m,
         )
-        self._isam = make_isam2(cfg) if cfg.online else None
+        self._isam = make_isam2(cfg) if cfg.optimisation.online else None
         self._graph = gtsam.NonlinearFactorGraph()  # every factor, for batch / GNC
         self._values = gtsam.Values()  # initial guesses (the estimate when offline)
         self._known_inliers: list[int] = []  # graph indices of non-closure factors
@@ -117,12 +117,12 @@ class PoseGraphSLAM:
         else:
             buf, cfg = self._buffer, self._config
             onset = (
-                cfg.keyframe_on_scene_change
+                cfg.keyframes.on_scene_change
                 and scene != -1
                 and scene != self._prev_scene
-                and buf.distance >= cfg.keyframe_min_distance
+                and buf.distance >= cfg.keyframes.min_distance_m
             )
-            if buf.distance >= cfg.keyframe_distance or abs(buf.theta) >= cfg.keyframe_angle or onset:
+            if buf.distance >= cfg.keyframes.distance_m or abs(buf.theta) >= cfg.keyframes.angle_rad or onset:
                 self._add_keyframe(step_index, scene)
         self._prev_scene = scene
 
@@ -141,11 +141,13 @@ class PoseGraphSLAM:
         j = self._record_keyframe(step_index, scene)
         factors = gtsam.NonlinearFactorGraph()
         values = gtsam.Values()
-        sig = np.array([cfg.prior_sigma_xy, cfg.prior_sigma_xy, cfg.prior_sigma_theta])
+        sig = np.array(
+            [cfg.odometry.prior_sigma_xy_m, cfg.odometry.prior_sigma_xy_m, cfg.odometry.prior_sigma_theta_rad]
+        )
         factors.add(gtsam.PriorFactorPose2(X(j), pose0, gtsam.noiseModel.Diagonal.Sigmas(sig)))
         values.insert(X(j), pose0)
-        if cfg.estimate_yaw_bias:
-            noise = gtsam.noiseModel.Isotropic.Sigma(1, cfg.yaw_bias_prior_sigma)
+        if cfg.yaw_bias.estimate:
+            noise = gtsam.noiseModel.Isotropic.Sigma(1, cfg.yaw_bias.prior_sigma_rad_s)
             factors.add(gtsam.PriorFactorVector(BIAS_KEY, np.zeros(1), noise))
             values.insert(BIAS_KEY, np.zeros(1))
         for n in range(factors.size()):
@@ -162,10 +164,12 @@ class PoseGraphSLAM:
     def _add_keyframe(self, step_index: int, scene: int) -> None:
         cfg = self._config
         dt, v, w = self._buffer.arrays()
-        cov = relative_covariance(dt, v, w, cfg.odom_sigma_v, cfg.odom_sigma_w, cfg.odom_sigma_lateral, self._bias)
+        cov = relative_covariance(
+            dt, v, w, cfg.odometry.sigma_v_m_s, cfg.odometry.sigma_w_rad_s, cfg.odometry.sigma_lateral_m_s, self._bias
+        )
         prev = len(self._kf_ticks) - 1
         j = self._record_keyframe(step_index, scene)
-        if cfg.estimate_yaw_bias:
+        if cfg.yaw_bias.estimate:
             odo = BiasedOdometry(dt, v, w)
             z = odo.measured(self._bias)
             odo_factor = biased_odometry_factor(X(prev), X(j), BIAS_KEY, odo, odometry_noise(cov))
@@ -201,13 +205,17 @@ class PoseGraphSLAM:
         flush = bool(self._pending_closures) and (
             self._keyframes_since_flush >= cfg.closure_batch or self._disagrees(closures, guess)
         )
-        if not flush and not cfg.estimate_yaw_bias and len(self._deferred_factors) + 1 < cfg.odometry_batch_keyframes:
+        if (
+            not flush
+            and not cfg.yaw_bias.estimate
+            and len(self._deferred_factors) + 1 < cfg.optimisation.odometry_batch_keyframes
+        ):
             # Odometry only: iSAM2 would place the keyframe at exactly this guess (its only
             # new factor is satisfied there), so it waits and joins the next update.
             self._deferred_factors.append(odo_factor)
             self._deferred_values.insert(X(j), guess)
             self._latest = guess
-            if cfg.backend == "gnc":
+            if cfg.backend.kind == "gnc":
                 self._keyframes_since_gnc += 1
             return
         closure_factors = self._take_pending() if flush else []
@@ -222,15 +230,15 @@ class PoseGraphSLAM:
         # too; left free, COLAMD places it with less fill.
         last = gtsam.KeyGroupMap()
         last.insert2(X(j), 1)
-        if cfg.estimate_yaw_bias:
+        if cfg.yaw_bias.estimate:
             last.insert2(BIAS_KEY, 1)
         self._update_isam(tagged, new_values, last=last)
         if closure_factors:
-            for _ in range(cfg.isam2_extra_updates):
+            for _ in range(cfg.optimisation.isam2_extra_updates):
                 self._isam.update()
-        if cfg.backend == "gnc":
+        if cfg.backend.kind == "gnc":
             self._keyframes_since_gnc += 1
-            if self._keyframes_since_gnc >= cfg.gnc_interval and self._has_pending():
+            if self._keyframes_since_gnc >= cfg.backend.gnc_interval_keyframes and self._has_pending():
                 self._gnc_verify()
         self._refresh_latest()
 
@@ -253,9 +261,13 @@ class PoseGraphSLAM:
         tagged = []
         for c, _ in self._pending_closures:
             judged = not math.isnan(self._lc_gnc_weight[c])
-            if self._config.backend == "gnc" and judged and self._lc_gnc_weight[c] < self._config.accept_weight:
+            if (
+                self._config.backend.kind == "gnc"
+                and judged
+                and self._lc_gnc_weight[c] < self._config.backend.accept_weight
+            ):
                 continue
-            self._lc_provisional[c] = self._config.backend == "gnc" and not judged
+            self._lc_provisional[c] = self._config.backend.kind == "gnc" and not judged
             tagged.append((self._isam_closure_factor(c), c))
         self._pending_closures = []
         self._keyframes_since_flush = 0
@@ -340,8 +352,8 @@ class PoseGraphSLAM:
 
     def _disagrees(self, closures: list[int], guess: gtsam.Pose2) -> bool:
         """Whether a new closure contradicts the current estimate (Mahalanobis distance of its
-        residual above ``closure_flush_distance``): such a closure is added at once, not batched."""
-        limit = self._config.closure_flush_distance
+        residual above ``closures.flush_distance``): such a closure is added at once, not batched."""
+        limit = self._config.closures.flush_distance
         if not closures or not math.isfinite(limit):
             return False
         poses_i = np.array([self._estimate_pose2(i) for i in closures])
@@ -359,7 +371,7 @@ class PoseGraphSLAM:
     def _refresh_latest(self) -> None:
         j = len(self._kf_ticks) - 1
         self._latest = self._isam.calculateEstimatePose2(X(j))
-        if self._config.estimate_yaw_bias:
+        if self._config.yaw_bias.estimate:
             self._bias = float(self._isam.calculateEstimateVector(BIAS_KEY)[0])
 
     def _estimate_xy(self, i: int) -> tuple[float, float]:
@@ -395,7 +407,7 @@ class PoseGraphSLAM:
         added: list[int] = []
         remove: list[int] = []
         for c in range(len(self._lc_i)):
-            inlier = self._lc_gnc_weight[c] >= self._config.accept_weight
+            inlier = self._lc_gnc_weight[c] >= self._config.backend.accept_weight
             present = self._lc_isam_index[c] >= 0
             if present and (not inlier or self._lc_provisional[c]):
                 remove.append(self._lc_isam_index[c])
@@ -405,14 +417,14 @@ class PoseGraphSLAM:
                 added.append(c)
         if added or remove:
             self._update_isam([(self._isam_closure_factor(c), c) for c in added], gtsam.Values(), remove)
-            for _ in range(self._config.isam2_extra_updates):
+            for _ in range(self._config.optimisation.isam2_extra_updates):
                 self._isam.update()
 
     # ------------------------------------------------------------------ finalize
     def finalize(self) -> None:
         """End-of-run optimisation.
 
-        With ``final_batch`` the whole graph is optimised by batch
+        With ``optimisation.final_batch`` the whole graph is optimised by batch
         Levenberg-Marquardt ("gaussian", "robust") or GNC ("gnc") from the
         current estimate, and the read-access properties report that result
         until the next ``step``.  Without it, the online "gnc" back-end still
@@ -422,18 +434,18 @@ class PoseGraphSLAM:
         if not self._kf_ticks:
             return
         self._flush_closures()
-        if cfg.final_batch:
+        if cfg.optimisation.final_batch:
             initial = self._current_values()
-            if cfg.backend == "gnc":
+            if cfg.backend.kind == "gnc":
                 values = self._run_gnc(initial)
             else:
                 values = batch_lm(self._graph, initial, cfg)
             self._batch = values
             j = len(self._kf_ticks) - 1
             self._latest = values.atPose2(X(j))
-            if cfg.estimate_yaw_bias:
+            if cfg.yaw_bias.estimate:
                 self._bias = float(values.atVector(BIAS_KEY)[0])
-        elif cfg.backend == "gnc" and self._isam is not None and self._has_pending():
+        elif cfg.backend.kind == "gnc" and self._isam is not None and self._has_pending():
             self._gnc_verify()
             self._refresh_latest()
 
@@ -459,7 +471,7 @@ class PoseGraphSLAM:
 
     @property
     def yaw_bias(self) -> float:
-        """Current yaw-rate bias estimate (rad/s); 0 unless ``estimate_yaw_bias``."""
+        """Current yaw-rate bias estimate (rad/s); 0 unless ``yaw_bias.estimate``."""
         return self._bias
 
     @property
@@ -506,10 +518,10 @@ class PoseGraphSLAM:
         n = len(self._lc_i)
         if n == 0:
             return np.zeros(0)
-        if self._config.backend == "gaussian":
+        if self._config.backend.kind == "gaussian":
             return np.ones(n)
         weights = np.asarray(self._lc_gnc_weight, dtype=float)
-        unjudged = np.isnan(weights) if self._config.backend == "gnc" else np.ones(n, dtype=bool)
+        unjudged = np.isnan(weights) if self._config.backend.kind == "gnc" else np.ones(n, dtype=bool)
         if unjudged.any():
             poses = self.keyframe_poses
             i = np.asarray(self._lc_i)[unjudged]
@@ -520,8 +532,8 @@ class PoseGraphSLAM:
 
     @property
     def closure_accepted(self) -> np.ndarray:
-        """(L,) inlier flag: weight >= ``config.accept_weight``."""
-        return self.closure_weights >= self._config.accept_weight
+        """(L,) inlier flag: weight >= ``config.backend.accept_weight``."""
+        return self.closure_weights >= self._config.backend.accept_weight
 
     @property
     def isam2_recoveries(self) -> int:

@@ -36,7 +36,7 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
-from baselines import PoseGraphConfig, PoseGraphSLAM
+from baselines import BackendConfig, OptimisationConfig, PoseGraphConfig, PoseGraphSLAM, YawBiasConfig
 from baselines.optimizers import batch_lm
 from worlds import simulate
 from worlds.files import write_json
@@ -138,7 +138,7 @@ def keyframe_timing(targets: list[int], config: PoseGraphConfig, window: int = 2
                     "keyframe_step": stats_ms(step_times[-window:]),
                     "batch_lm_ms": lm * 1e3,
                     # A keyframe with only odometry may wait for the next update
-                    # (``odometry_batch_keyframes``): its update time is 0, so the median
+                    # (``optimisation.odometry_batch_keyframes``): its update time is 0, so the median
                     # per keyframe can be 0; per call and the mean per keyframe are given too.
                     "isam2_update_per_call": stats_ms([u for u in update_times[-window:] if u > 0.0] or [0.0]),
                     "batch_lm_over_isam2_mean": lm / float(np.mean(update_times[-window:])),
@@ -166,10 +166,10 @@ def stream_timing(repeats: int = 3) -> dict:
     out = {"ticks": len(log.dt), "odometry_only_s": odometry_only}
     configs = {
         "robust (default)": PoseGraphConfig(),
-        "gaussian": PoseGraphConfig(backend="gaussian"),
-        "gnc": PoseGraphConfig(backend="gnc"),
-        "robust + final batch LM": PoseGraphConfig(final_batch=True),
-        "robust + yaw bias": PoseGraphConfig(estimate_yaw_bias=True),
+        "gaussian": PoseGraphConfig(backend=BackendConfig(kind="gaussian")),
+        "gnc": PoseGraphConfig(backend=BackendConfig(kind="gnc")),
+        "robust + final batch LM": PoseGraphConfig(optimisation=OptimisationConfig(final_batch=True)),
+        "robust + yaw bias": PoseGraphConfig(yaw_bias=YawBiasConfig(estimate=True)),
     }
     for name, cfg in configs.items():
         times = []
@@ -232,7 +232,10 @@ def main() -> None:
     old_targets = [1000, 2000] if args.quick else [1000, 3000]
     print("per keyframe, every closure at once from a 64-sighting window (the previous default):")
     previous = keyframe_timing(
-        old_targets, PoseGraphConfig(closure_batch_keyframes=1, closure_candidate_window=64, odometry_batch_keyframes=1)
+        old_targets,
+        PoseGraphConfig().replace(
+            closures={"batch_keyframes": 1, "candidate_window": 64}, optimisation={"odometry_batch_keyframes": 1}
+        ),
     )
     result = {
         "stream_15min": stream,

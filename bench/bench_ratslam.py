@@ -87,9 +87,7 @@ def dense_step_ms() -> tuple[float, float]:
     """One step with activity on every cell: box path vs full-grid reference (ms)."""
     cfg = RatSLAMConfig()
     rng = np.random.default_rng(0)
-    cells = np.stack(
-        np.meshgrid(np.arange(cfg.nx), np.arange(cfg.ny), np.arange(cfg.n_theta), indexing="ij"), -1
-    ).reshape(-1, 3)
+    cells = np.stack(np.meshgrid(*(np.arange(n) for n in cfg.shape), indexing="ij"), -1).reshape(-1, 3)
     energy = rng.uniform(0.5, 1.0, len(cells)) * 1e-3
     out = []
     for reference in (False, True):

@@ -155,13 +155,13 @@ def synthetic(n_ticks: int, every_map: int, every_activity: int, out: Path) -> d
 def real(duration: float, out: Path) -> dict:
     """The office_floor world through the real systems, with and without the recorder."""
     from harness.runner import dead_reckon, run_stream
-    from ratslam import RatSLAMConfig
+    from ratslam import PoseCellConfig, RatSLAMConfig
     from worlds import load_world, simulate
 
     world = load_world("office_floor")
     log = simulate(world, duration=duration, seed=0)
     odo, gt, fp = dead_reckon(log), log.ground_truth(), log.false_positive
-    cfg = RatSLAMConfig(nx=40, ny=40, n_theta=36)
+    cfg = RatSLAMConfig(pose_cells=PoseCellConfig(nx=40, ny=40, n_theta=36))
     rec = Recorder(out, world.walls, cfg.shape)
     spent = [0.0]
 

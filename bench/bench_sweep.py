@@ -42,11 +42,11 @@ system = "gtsam"
 
 [systems.gtsam_gaussian]
 system = "gtsam"
-backend = "gaussian"
+backend.kind = "gaussian"
 
 [systems.gtsam_bias]
 system = "gtsam"
-estimate_yaw_bias = true
+yaw_bias.estimate = true
 """
 
 

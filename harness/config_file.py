@@ -1,10 +1,22 @@
 """Configuration files: ``[ratslam]`` and ``[gtsam]`` tables of ``RatSLAMConfig`` and
 ``PoseGraphConfig`` fields, in TOML.
 
-Reading validates everything and reports a problem as one line naming the file, the table, the
-key and the problem (:class:`ConfigFileError`). Every run directory gets the effective
-configuration as ``config.toml``; feeding that file back (``replay LOG --config RUN/config.toml``)
-reproduces the run bit for bit, since floats are written with ``repr`` (exact round trip).
+Each sub-config is a sub-table, e.g.::
+
+    [ratslam.pose_cells]
+    nx = 40
+    [ratslam.experience_map]
+    energy = "sum"
+    [gtsam.backend]
+    kind = "gnc"
+
+(TOML's dotted keys are the same thing: ``pose_cells.nx = 40`` under ``[ratslam]``). Fields not
+given keep the configuration they are applied to. Reading validates everything and reports a
+problem as one line naming the file, the table, the key and the problem
+(:class:`ConfigFileError`), e.g. ``c.toml: [ratslam.pose_cells] nx: must be an integer >= 4,
+got 3``. Every run directory gets the effective configuration as ``config.toml``; feeding that
+file back (``replay LOG --config RUN/config.toml``) reproduces the run bit for bit, since floats
+are written with ``repr`` (exact round trip).
 """
 
 from __future__ import annotations
@@ -12,25 +24,33 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
-import types
-import typing
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, NoReturn
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
+from ratslam.config_fields import ConfigError, replace, subconfigs
 from worlds.files import atomic_write_text, read_text
 
-TABLES = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
+TABLES: dict[str, type] = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 
 
 class ConfigFileError(ValueError):
     """A malformed configuration file. The message is one line: file, table, key, problem."""
 
 
+def where(table: str, error: ConfigError) -> str:
+    """``[table.section] key: problem`` for a configuration error of the config in ``[table]``."""
+    section, _, key = error.field.rpartition(".")
+    return f"[{table}.{section}] {key}: {error.problem}" if section else f"[{table}] {key}: {error.problem}"
+
+
 @dataclass(frozen=True)
 class ConfigOverrides:
-    """Field values read from a configuration file, per system (unset fields keep defaults)."""
+    """Field values read from a configuration file, per system, as nested mappings like the
+    file's tables (unset fields keep the configuration they are applied to)."""
 
     ratslam: dict = field(default_factory=dict)
     gtsam: dict = field(default_factory=dict)
@@ -42,49 +62,31 @@ class ConfigOverrides:
 
     def _replace(self, table: str, config, values: dict):
         try:
-            return dataclasses.replace(config, **values)
-        except ValueError as e:
-            raise ConfigFileError(f"{self.source}: [{table}] {e}") from None
+            return replace(config, values)
+        except ConfigError as e:
+            raise ConfigFileError(f"{self.source}: {where(table, e)}") from None
 
 
-def _field_types(cls) -> dict[str, tuple[type, bool]]:
-    """Per field: its scalar type and whether None is allowed."""
-    hints = typing.get_type_hints(cls)
-    out = {}
-    for f in dataclasses.fields(cls):
-        hint = hints[f.name]
-        optional = False
-        if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
-            args = [a for a in typing.get_args(hint) if a is not type(None)]
-            optional = len(args) < len(typing.get_args(hint))
-            hint = args[0]
-        out[f.name] = (hint, optional)
+def read_config_table(cls: type, values: dict, table: str, fail: Callable[[str, str], NoReturn]) -> dict:
+    """The entries of TOML table ``[table]`` for config class ``cls``, checked for known keys and
+    for sub-tables where the class has sub-configs (values are checked when applied). Problems go
+    to ``fail(where, problem)``, ``where`` like ``[ratslam.pose_cells] nx``."""
+    names = {f.name for f in dataclasses.fields(cls)}
+    subs = subconfigs(cls)
+    out: dict[str, Any] = {}
+    for key, value in values.items():
+        if key not in names:
+            hint = f"; a quoted dotted key? write it bare: {key} = ..." if "." in key else ""
+            fail(f"[{table}] {key}", f"unknown key (not a field of {cls.__name__}){hint}")
+        if key in subs:
+            if not isinstance(value, dict):
+                fail(f"[{table}] {key}", f"expected a table [{table}.{key}], got {value!r}")
+            out[key] = read_config_table(subs[key], value, f"{table}.{key}", fail)
+        elif isinstance(value, dict):
+            fail(f"[{table}] {key}", "expected a value, got a table")
+        else:
+            out[key] = value
     return out
-
-
-def _typed(path, table: str, key: str, value, kind: type):
-    """The TOML value as the field's type, or a one-line error."""
-
-    def fail(expected):
-        raise ConfigFileError(f"{path}: [{table}] {key}: expected {expected}, got {value!r} ({type(value).__name__})")
-
-    if kind is bool:
-        if not isinstance(value, bool):
-            fail("true or false")
-        return value
-    if kind is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            fail("an integer")
-        return value
-    if kind is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            fail("a number")
-        return float(value)
-    if kind is str:
-        if not isinstance(value, str):
-            fail("a string")
-        return value
-    raise ConfigFileError(f"{path}: [{table}] {key}: cannot be set from a file")
 
 
 def read_toml(path: Path, error: type[Exception]) -> dict:
@@ -97,22 +99,20 @@ def read_toml(path: Path, error: type[Exception]) -> dict:
 
 
 def read_config_file(path) -> ConfigOverrides:
-    """Read and validate a configuration file (types here, values when applied)."""
+    """Read and validate a configuration file (keys here, values by applying them to the defaults)."""
     path = Path(path)
     raw = read_toml(path, ConfigFileError)
+
+    def fail(where_: str, problem: str) -> NoReturn:
+        raise ConfigFileError(f"{path}: {where_}: {problem}")
+
     tables = {}
     for table, values in raw.items():
         if table not in TABLES:
-            raise ConfigFileError(f"{path}: [{table}]: unknown table (expected {', '.join(f'[{t}]' for t in TABLES)})")
+            fail(f"[{table}]", f"unknown table (expected {', '.join(f'[{t}]' for t in TABLES)})")
         if not isinstance(values, dict):
-            raise ConfigFileError(f"{path}: {table}: expected a table [{table}], got a {type(values).__name__}")
-        types_ = _field_types(TABLES[table])
-        out = {}
-        for key, value in values.items():
-            if key not in types_:
-                raise ConfigFileError(f"{path}: [{table}] {key}: unknown key (not a field of {TABLES[table].__name__})")
-            out[key] = _typed(path, table, key, value, types_[key][0])
-        tables[table] = out
+            fail(table, f"expected a table [{table}], got a {type(values).__name__}")
+        tables[table] = read_config_table(TABLES[table], values, table, fail)
     overrides = ConfigOverrides(ratslam=tables.get("ratslam", {}), gtsam=tables.get("gtsam", {}), source=str(path))
     overrides.apply(RatSLAMConfig(), PoseGraphConfig())  # values checked now, before any work
     return overrides
@@ -134,14 +134,24 @@ def _toml_value(value) -> str:
     raise TypeError(f"cannot write {value!r} to TOML")
 
 
+def _table_lines(table: str, config) -> list[str]:
+    """``[table]`` with the config's own fields (if any), then a sub-table per sub-config."""
+    subs = subconfigs(type(config))
+    own = [f.name for f in dataclasses.fields(config) if f.name not in subs]
+    lines = ["", f"[{table}]"] if own else []
+    for name in own:
+        value = getattr(config, name)
+        lines.append(f"# {name}: unset (None)" if value is None else f"{name} = {_toml_value(value)}")
+    for name in subs:
+        lines += _table_lines(f"{table}.{name}", getattr(config, name))
+    return lines
+
+
 def config_toml(ratslam: RatSLAMConfig, gtsam: PoseGraphConfig, header: str = "") -> str:
     """The TOML text of two configurations (every field; a None field as a comment)."""
     lines = [f"# {line}" for line in header.splitlines()]
     for table, config in (("ratslam", ratslam), ("gtsam", gtsam)):
-        lines += ["", f"[{table}]"]
-        for f in dataclasses.fields(config):
-            value = getattr(config, f.name)
-            lines.append(f"# {f.name}: unset (None)" if value is None else f"{f.name} = {_toml_value(value)}")
+        lines += _table_lines(table, config)
     return "\n".join(lines).lstrip("\n") + "\n"
 
 

@@ -61,7 +61,7 @@ def evaluate_stream(
         return summarize_stream(res, log)
     gt = log.ground_truth()
     rs, pg = res.ratslam, res.gtsam
-    cfg = rs.config
+    cfg = rs.config.pose_cells
     sizes = np.array([cfg.cell_size_m, cfg.cell_size_m, cfg.theta_cell_rad])
     extent = np.array(cfg.shape) * sizes
     peak_path = unwrap_peak_path(res.peak_metres, extent)

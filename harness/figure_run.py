@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines import PoseGraphConfig
-from ratslam import RatSLAMConfig
+from baselines import PoseGraphConfig, YawBiasConfig
+from ratslam import PoseCellConfig, RatSLAMConfig
 from worlds import ObservationLog, World, load_world, simulate
 from worlds.files import atomic_open, write_json, write_tum
 
@@ -83,8 +83,10 @@ def _configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLA
     """The variant's configurations (and what was derived, if anything): the figure's grid and
     the variant's biases, on the defaults or on those derived from the log's scale."""
     nx, ny, nth = fig.grid
-    rs = RatSLAMConfig(nx=nx, ny=ny, n_theta=nth, pi_bias_deg_s=variant.pi_bias)
-    pg = PoseGraphConfig(estimate_yaw_bias=variant.gtsam_yaw_bias)
+    rs = RatSLAMConfig(
+        pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth, path_integration_bias_deg_s=variant.pi_bias)
+    )
+    pg = PoseGraphConfig(yaw_bias=YawBiasConfig(estimate=variant.gtsam_yaw_bias))
     if variant.derived_scale:
         return derive_configs(log, rs, pg)
     return rs, pg, ""
@@ -168,7 +170,7 @@ def _run_variant(
     if derivation:
         m["derived_scale"] = derivation
     if fig.world == "full_floor":
-        m["rooms"] = room_laps(res, log, ROOM_GH, rs_cfg.cell_size_m, rs_cfg.shape)
+        m["rooms"] = room_laps(res, log, ROOM_GH, rs_cfg.pose_cells.cell_size_m, rs_cfg.shape)
     m["_lap_length"] = lap_length(world, log.ground_truth()) if world is not None else None
     m["_duration"] = log.duration
     return m

@@ -31,8 +31,8 @@ Measured quantities (:func:`measure_log`):
     component). A laddered roughness value inside the revisits' profile-likelihood support
     (within 2 log-likelihood units of the maximum) is kept; one outside it is replaced by the
     most likely value. Plaza 1: roughness x2.83 / x2 of 0.01, revisits x11.3 (support
-    x5.7-x11.3; seed 1: x0.008-x11.3, roughness kept) / x0.5 (x0.5-x0.7), so odom_sigma_v
-    0.113 m/s (seed 1: 0.028) and odom_sigma_w 0.005 rad/s;
+    x5.7-x11.3; seed 1: x0.008-x11.3, roughness kept) / x0.5 (x0.5-x0.7), so odometry.sigma_v_m_s
+    0.113 m/s (seed 1: 0.028) and odometry.sigma_w_rad_s 0.005 rad/s;
     Plaza 2: roughness x5.66 / x2.83, revisits x0.008 (support x0.008-x22.6: not resolved, the
     roughness kept) / x8 (x8-x8), so 0.057 m/s and 0.08 rad/s (its heading does drift,
     8.7 deg per 100 m). Pose-graph ATE keyframes / online, seeds 0/1/2, with the roughness
@@ -48,51 +48,51 @@ a log within a factor 2**0.25 (0.84-1.19) of the reference gets the reference va
 the simulator's own streams get exactly the defaults. The rules:
 
   Pose graph (scene factor s = label length / 0.9 m, laddered):
-    keyframe_distance = 0.5 m * s        (two keyframes per scene cell)
-    closure_sigma_xy  = s / sqrt(6) m    (a closure is known to within one scene cell,
+    keyframes.distance_m = 0.5 m * s     (two keyframes per scene cell)
+    closures.sigma_xy_m  = s / sqrt(6) m (a closure is known to within one scene cell,
                                           uniform over a cell of side s: s / sqrt(6) per axis)
-    closure_min_travel = 4 m * s
-    odom_sigma_v, odom_sigma_w = 0.01 * laddered noise ratio, each replaced by the revisits'
-                                 most likely value if the revisits reject it (see above)
-  RatSLAM (cells per tick c = laddered step / cell_size_m):
-    pc_trans_gain: the lattice-lag compensation depends on c. Measured packet speed / applied
+    closures.min_travel_m = 4 m * s
+    odometry.sigma_v_m_s, odometry.sigma_w_rad_s = 0.01 * laddered noise ratio, each replaced by
+                                 the revisits' most likely value if the revisits reject it (see above)
+  RatSLAM (cells per tick c = laddered step / pose_cells.cell_size_m):
+    pose_cells.trans_gain: the lattice-lag compensation depends on c. Measured packet speed / applied
       shift of the default network (straight runs, headings 0 and 35 deg): 0.96/0.95 at 0.17
       cells per tick, 0.97/0.96 at 0.3, 0.99/0.97 at 0.4, 1.00/0.99 at 0.6, 1.00 at 0.8 and
       1.0, 0.99 at 1.4. Gain 1.05 up to 0.2 cells per tick, 1.0 from 0.6, linear between.
-    cell_size_m: 0.25 m while the packet moves at most MAX_CELLS_PER_TICK (0.75) cells per tick;
+    pose_cells.cell_size_m: 0.25 m while the packet moves at most MAX_CELLS_PER_TICK (0.75) cells per tick;
       above, the cell grows to keep 0.75. On straight runs the packet keeps up to 1.4 cells per
       tick, but on a real drive it does not hold together: Plaza 2 (0.34 m per tick, laddered)
       snaps 247 / 219 / 162 / 87 times in 4090 ticks at 1.37 / 1.0 / 0.75 / 0.6 cells per tick,
-      and each snap freezes the map for snap_settle_ticks (92 experiences at 1.37, 158 at 0.75).
+      and each snap freezes the map for experience_map.snap_settle_ticks (92 experiences at 1.37, 158 at 0.75).
       Map ATE, seed 0, with the re-entry fusion: 3.01 / 4.06 / 1.60 / 1.63 m (fusion off: 2.41 m
       at 1.37; 1.37 m at 0.75). 0.75 leaves Plaza 1 (0.69 cells per tick) and the simulator
       (0.17) at 0.25 m cells; bigger cells hurt Plaza 1 (below).
-    Re-entry fusion (RatSLAMConfig.reentry_*; only when the odometry noise departs from the
+    Re-entry fusion (RatSLAMConfig.reentry; only when the odometry noise departs from the
       reference, i.e. with the pose graph's revisit-tested noise; the simulator keeps it off):
-      reentry_position_sigma_m = closure_sigma_xy (the pose graph's closure noise: one scene cell),
-      reentry_heading_sigma_deg = one heading cell / sqrt(12) (2.89 deg; measured pose-cell
-      heading error at Plaza re-entries 2.0-3.2 deg rms), odom_speed_noise / odom_heading_noise
-      = odom_sigma_v / odom_sigma_w. Measured in RatSLAMConfig's docstring: Plaza 1 experience
-      map 1.33/1.62/1.77 -> 1.30/1.33/1.39 m (seeds 0/1/2; odometry 1.47 m).
+      reentry.position_sigma_m = closures.sigma_xy_m (the pose graph's closure noise: one scene
+      cell), reentry.heading_sigma_deg = one heading cell / sqrt(12) (2.89 deg; measured pose-cell
+      heading error at Plaza re-entries 2.0-3.2 deg rms), reentry.odom_speed_noise_m_s /
+      odom_heading_noise_rad_s = odometry.sigma_v_m_s / sigma_w_rad_s. Measured in
+      docs/configuration.md (re-entry fusion): Plaza 1 experience map 1.33/1.62/1.77 ->
+      1.30/1.33/1.39 m (seeds 0/1/2; odometry 1.47 m).
   Everything else keeps its default, also the tick-based windows and the zones of influence,
   because scaling them with the log did not help (measured on Plaza 1, experience-map ATE,
-  seeds 0 / 1, odometry 1.47 m; pc_trans_gain 1.0 throughout): defaults 1.33 / 1.62 m;
-  view_min_age_ticks and snap_settle_ticks kept in metres (15 and 11 ticks) 1.47 / 2.40 m; the
-  fatigue rates too 2.22 / 1.47 m; r_inf 4 cells (1 m, half the 2 m scene) - / 5.47 m; pose
+  seeds 0 / 1, odometry 1.47 m; pose_cells.trans_gain 1.0 throughout): defaults 1.33 / 1.62 m;
+  local_view.min_age_ticks and experience_map.snap_settle_ticks kept in metres (15 and 11 ticks) 1.47 / 2.40 m; the
+  fatigue rates too 2.22 / 1.47 m; r_inf_cells 4 (1 m, half the 2 m scene) - / 5.47 m; pose
   cells of 1.0 m (0.2 cells per tick, r_inf 2 m) 6.50 / - m, of 1.17 m 8.21 / - m (re-entries
   within a 2 m zone carry heading offsets up to 20 deg, which rotate the map behind them).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from baselines import PoseGraphConfig
-from ratslam import RatSLAMConfig
+from ratslam import RatSLAMConfig, ReentryFusionConfig
 
 REFERENCE_STEP_M = 0.3 / 7.0
 """Metres per tick of the simulated robot (0.3 m/s at 7 Hz)."""
@@ -101,7 +101,7 @@ REFERENCE_LABEL_LENGTH_M = 0.9
 REFERENCE_NOISE = 0.01
 """Per-tick odometry noise of the simulator, m/s and rad/s."""
 MAX_CELLS_PER_TICK = 0.75
-GAIN_SLOW, GAIN_FAST = (0.2, 1.05), (0.6, 1.0)  # (cells per tick, pc_trans_gain)
+GAIN_SLOW, GAIN_FAST = (0.2, 1.05), (0.6, 1.0)  # (cells per tick, pose_cells.trans_gain)
 REENTRY_HEADING_SIGMA_CELLS = 1.0 / math.sqrt(12.0)
 """Heading uncertainty of a re-entry, in heading cells (uniform over one cell)."""
 
@@ -168,7 +168,7 @@ class RevisitNoise:
     pairs: int  # revisit pairs (scene onset -> nearest earlier onset of that number)
     k_v: float  # maximum-likelihood sigma_v / REFERENCE_NOISE (ladder grid)
     k_w: float  # maximum-likelihood sigma_w / REFERENCE_NOISE
-    k_closure: float  # maximum-likelihood revisit scatter / closure_sigma_xy
+    k_closure: float  # maximum-likelihood revisit scatter / closures.sigma_xy_m
     inlier_fraction: float
     support_v: tuple  # ladder values of k_v (resp. k_w) whose profile log-likelihood is
     support_w: tuple  # within REVISIT_SUPPORT of the maximum: (lowest, highest)
@@ -239,7 +239,7 @@ def revisit_noise(log, min_travel: float, closure_sigma: float, margin: float = 
         return None
     e, A, B = np.asarray(e_list), np.asarray(a_list), np.asarray(b_list)
     outlier = 1.0 / ((np.ptp(px) + 2 * margin) * (np.ptp(py) + 2 * margin))
-    table = {}
+    table: dict[tuple[float, float], tuple[float, float, float]] = {}
     for kc in REVISIT_CLOSURE_GRID:
         c2 = (closure_sigma * kc) ** 2
         for kv in REVISIT_GRID:
@@ -273,7 +273,7 @@ def revisit_noise(log, min_travel: float, closure_sigma: float, margin: float = 
 
 
 def trans_gain(cells_per_tick: float) -> float:
-    """pc_trans_gain compensating the lattice lag at this packet speed (see the module doc)."""
+    """pose_cells.trans_gain compensating the lattice lag at this packet speed (see the module doc)."""
     (c0, g0), (c1, g1) = GAIN_SLOW, GAIN_FAST
     if cells_per_tick <= c0:
         return g0
@@ -295,23 +295,25 @@ def derive_configs(
     k_v, k_w = ladder(m.sigma_v / REFERENCE_NOISE), ladder(m.sigma_w / REFERENCE_NOISE)
     rough_v, rough_w = k_v, k_w
     step = REFERENCE_STEP_M * k_step
-    cell = max(rs.cell_size_m, step / MAX_CELLS_PER_TICK)
+    cell = max(rs.pose_cells.cell_size_m, step / MAX_CELLS_PER_TICK)
     cpt = step / cell
     rs_new = rs
     if k_step != 1.0:
-        rs_new = rs.replace(cell_size_m=cell, pc_trans_gain=trans_gain(cpt))
+        rs_new = rs.replace(pose_cells={"cell_size_m": cell, "trans_gain": trans_gain(cpt)})
     pg_new = pg
     if k_scene != 1.0:
-        pg_new = dataclasses.replace(
-            pg_new,
-            keyframe_distance=pg.keyframe_distance * k_scene,
-            closure_sigma_xy=pg.closure_sigma_xy * k_scene,
-            closure_min_travel=pg.closure_min_travel * k_scene,
+        pg_new = pg_new.replace(
+            keyframes={"distance_m": pg.keyframes.distance_m * k_scene},
+            closures={
+                "sigma_xy_m": pg.closures.sigma_xy_m * k_scene,
+                "min_travel_m": pg.closures.min_travel_m * k_scene,
+            },
         )
     revisits, revisit_text = None, ""
     if k_v != 1.0 or k_w != 1.0:
         # The rates' roughness is not the simulator's white noise: test it against the revisits.
-        revisits = revisit_noise(log, pg_new.closure_min_travel, pg_new.closure_sigma_xy, margin=m.label_length)
+        closures = pg_new.closures
+        revisits = revisit_noise(log, closures.min_travel_m, closures.sigma_xy_m, margin=m.label_length)
         if revisits is not None:
             lo, hi = revisits.support_v
             k_v = k_v if lo <= k_v <= hi else revisits.k_v
@@ -321,33 +323,39 @@ def derive_configs(
                 f" Revisits ({revisits.pairs} scene-onset pairs, {revisits.inlier_fraction:.0%} inliers): "
                 f"most likely noise x{revisits.k_v:g} (x{revisits.support_v[0]:g}-x{revisits.support_v[1]:g}), "
                 f"x{revisits.k_w:g} (x{revisits.support_w[0]:g}-x{revisits.support_w[1]:g}), onset scatter "
-                f"x{revisits.k_closure:g} of closure_sigma_xy; used x{k_v:g}, x{k_w:g}."
+                f"x{revisits.k_closure:g} of closures.sigma_xy_m; used x{k_v:g}, x{k_w:g}."
             )
-        pg_new = dataclasses.replace(pg_new, odom_sigma_v=pg.odom_sigma_v * k_v, odom_sigma_w=pg.odom_sigma_w * k_w)
+        odo = pg.odometry
+        pg_new = pg_new.replace(
+            odometry={"sigma_v_m_s": odo.sigma_v_m_s * k_v, "sigma_w_rad_s": odo.sigma_w_rad_s * k_w}
+        )
         # RatSLAM's re-entry fusion, with the pose graph's noise model (module doc)
         rs_new = rs_new.replace(
-            reentry_position_sigma_m=pg_new.closure_sigma_xy,
-            reentry_heading_sigma_deg=REENTRY_HEADING_SIGMA_CELLS * 360.0 / rs.n_theta,
-            odom_speed_noise=pg_new.odom_sigma_v,
-            odom_heading_noise=pg_new.odom_sigma_w,
+            reentry=ReentryFusionConfig(
+                position_sigma_m=pg_new.closures.sigma_xy_m,
+                heading_sigma_deg=REENTRY_HEADING_SIGMA_CELLS * 360.0 / rs.pose_cells.n_theta,
+                odom_speed_noise_m_s=pg_new.odometry.sigma_v_m_s,
+                odom_heading_noise_rad_s=pg_new.odometry.sigma_w_rad_s,
+            )
         )
+    pc, fusion, kf, lc, odo = rs_new.pose_cells, rs_new.reentry, pg_new.keyframes, pg_new.closures, pg_new.odometry
     text = (
         f"Measured from the log (no ground truth): tick {m.dt:.3f} s, moving speed {m.speed:.3f} m/s, "
         f"{m.step:.4f} m per tick (x{k_step:g} of the reference 0.3 m/s at 7 Hz), label length {m.label_length:.2f} m "
         f"(x{k_scene:g} of {REFERENCE_LABEL_LENGTH_M} m), odometry noise {m.sigma_v:.4f} m/s, {m.sigma_w:.4f} rad/s "
         f"(x{rough_v:g}, x{rough_w:g} of {REFERENCE_NOISE})." + revisit_text + "\n"
-        f"Derived: RatSLAM cell_size_m {rs_new.cell_size_m:g} ({cpt:.2f} cells per tick), pc_trans_gain "
-        f"{rs_new.pc_trans_gain:g}"
+        f"Derived: RatSLAM pose_cells.cell_size_m {pc.cell_size_m:g} ({cpt:.2f} cells per tick), "
+        f"pose_cells.trans_gain {pc.trans_gain:g}"
         + (
-            f", re-entry fusion (reentry_position_sigma_m {rs_new.reentry_position_sigma_m:.3f}, "
-            f"reentry_heading_sigma_deg {rs_new.reentry_heading_sigma_deg:.2f}, odom_speed_noise "
-            f"{rs_new.odom_speed_noise:g}, odom_heading_noise {rs_new.odom_heading_noise:g})"
-            if rs_new.reentry_position_sigma_m > 0
+            f", re-entry fusion (reentry.position_sigma_m {fusion.position_sigma_m:.3f}, "
+            f"reentry.heading_sigma_deg {fusion.heading_sigma_deg:.2f}, reentry.odom_speed_noise_m_s "
+            f"{fusion.odom_speed_noise_m_s:g}, reentry.odom_heading_noise_rad_s {fusion.odom_heading_noise_rad_s:g})"
+            if fusion.enabled
             else ""
         )
-        + f"; GTSAM keyframe_distance {pg_new.keyframe_distance:g} m, closure_sigma_xy "
-        f"{pg_new.closure_sigma_xy:.3f} m, closure_min_travel {pg_new.closure_min_travel:g} m, odom_sigma_v "
-        f"{pg_new.odom_sigma_v:g}, odom_sigma_w {pg_new.odom_sigma_w:g}"
+        + f"; GTSAM keyframes.distance_m {kf.distance_m:g} m, closures.sigma_xy_m {lc.sigma_xy_m:.3f} m, "
+        f"closures.min_travel_m {lc.min_travel_m:g} m, odometry.sigma_v_m_s {odo.sigma_v_m_s:g}, "
+        f"odometry.sigma_w_rad_s {odo.sigma_w_rad_s:g}"
         + (" (the defaults)" if rs_new == rs and pg_new == pg else "")
         + "."
     )

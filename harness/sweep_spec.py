@@ -20,9 +20,17 @@ A spec is a TOML file::
 
     [systems.ratslam]             # a named system: "system" is "ratslam" or "gtsam", every
     system = "ratslam"            # other key a field of RatSLAMConfig / PoseGraphConfig
+    experience_map.energy = "sum"
     [systems.gtsam_gnc]
     system = "gtsam"
-    backend = "gnc"
+    backend.kind = "gnc"
+
+A system's configuration fields are written as in a configuration file
+(:mod:`harness.config_file`): each sub-config is a sub-table, spelt with TOML's bare dotted keys
+``pose_cells.nx = 40`` (as above) or as a sub-table ``[systems.ratslam.pose_cells]`` with
+``nx = 40``; both are the same TOML. A quoted ``"pose_cells.nx"`` is one key, not a field, and
+is refused. With a figure as the base, RatSLAM systems take the figure's pose-cell grid unless
+they set their own.
 
 Design "one-at-a-time" (default) varies each axis alone, the others at the base condition (the
 world's own value), which is what a robustness curve per axis needs; "grid" runs every
@@ -33,17 +41,18 @@ that same stream. Every problem is one line naming the file, the key and the pro
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
+from ratslam.config_fields import ConfigError, replace
 from worlds import load_world
 
-from .config_file import _field_types, _typed, read_toml
+from .config_file import read_config_table, read_toml, where
 
 SYSTEM_CONFIGS = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 DESIGNS = ("one-at-a-time", "grid")
@@ -126,7 +135,7 @@ class SweepSpec:
         return [(c, s) for c in self.conditions() for s in self.seeds]
 
 
-def _fail(path, key: str, problem: str):
+def _fail(path, key: str, problem: str) -> NoReturn:
     raise SweepSpecError(f"{path}: {key}: {problem}")
 
 
@@ -228,30 +237,23 @@ def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
         _fail(path, "[systems]", 'missing or empty (add e.g. [systems.ratslam] system = "ratslam")')
     out = []
     for name, table in systems.items():
-        where = f"[systems.{name}]"
+        at = f"[systems.{name}]"
         if not isinstance(table, dict):
-            _fail(path, where, "expected a table")
+            _fail(path, at, "expected a table")
         kind = table.get("system")
         if kind not in SYSTEM_CONFIGS:
-            _fail(path, f"{where} system", f'expected "ratslam" or "gtsam", got {kind!r}')
+            _fail(path, f"{at} system", f'expected "ratslam" or "gtsam", got {kind!r}')
         cls = SYSTEM_CONFIGS[kind]
-        types_ = _field_types(cls)
-        fields = {}
-        for key, value in table.items():
-            if key == "system":
-                continue
-            if key not in types_:
-                _fail(path, f"{where} {key}", f"unknown key (not a field of {cls.__name__})")
-            try:
-                fields[key] = _typed(path, f"systems.{name}", key, value, types_[key][0])
-            except ValueError as e:
-                raise SweepSpecError(str(e)) from None
+        values = {k: v for k, v in table.items() if k != "system"}
+        fields = read_config_table(cls, values, f"systems.{name}", lambda at, problem: _fail(path, at, problem))
+        config = cls()
         if kind == "ratslam" and grid is not None:
-            fields = {"nx": grid[0], "ny": grid[1], "n_theta": grid[2], **fields}
+            pose_cells = {"nx": grid[0], "ny": grid[1], "n_theta": grid[2], **fields.get("pose_cells", {})}
+            fields = {**fields, "pose_cells": pose_cells}
         try:
-            config = cls(**fields)
-        except (ValueError, TypeError) as e:
-            _fail(path, where, str(e))
+            config = replace(config, fields)
+        except ConfigError as e:
+            raise SweepSpecError(f"{path}: {where(f'systems.{name}', e)}") from None
         out.append(SystemSpec(name, kind, config))
     return tuple(out)
 
@@ -300,5 +302,5 @@ def read_sweep_spec(path) -> SweepSpec:
 def system_config(system: SystemSpec, condition: dict):
     """The system's configuration under ``condition`` (the path-integration bias goes to RatSLAM)."""
     if system.kind == "ratslam" and "pi_bias" in condition:
-        return dataclasses.replace(system.config, pi_bias_deg_s=float(condition["pi_bias"]))
+        return replace(system.config, {"pose_cells": {"path_integration_bias_deg_s": float(condition["pi_bias"])}})
     return system.config

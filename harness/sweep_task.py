@@ -48,13 +48,14 @@ def _run_system(kind: str, config_fields: dict, log, gt: np.ndarray) -> dict:
     """One system over the whole log: accuracy (online and map), sizes, wall time."""
     from baselines import PoseGraphConfig, PoseGraphSLAM
     from ratslam import RatSLAM, RatSLAMConfig
+    from ratslam.config_fields import from_dict
 
     from .evaluate import CLOSURE_TRUE_DISTANCE, _closure_quality
 
     system = (
-        RatSLAM(RatSLAMConfig(**config_fields))
+        RatSLAM(from_dict(RatSLAMConfig, config_fields))
         if kind == "ratslam"
-        else PoseGraphSLAM(PoseGraphConfig(**config_fields))
+        else PoseGraphSLAM(from_dict(PoseGraphConfig, config_fields))
     )
     n = len(log)
     online = np.zeros((n, 3))

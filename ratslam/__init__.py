@@ -1,6 +1,13 @@
 """RatSLAM with experience mapping (Milford, Prasser & Wyeth, ACRA 2005)."""
 
-from .config import RatSLAMConfig
+from .config import ExperienceMapConfig, LocalViewConfig, PoseCellConfig, RatSLAMConfig, ReentryFusionConfig
 from .pipeline import RatSLAM
 
-__all__ = ["RatSLAM", "RatSLAMConfig"]
+__all__ = [
+    "ExperienceMapConfig",
+    "LocalViewConfig",
+    "PoseCellConfig",
+    "RatSLAM",
+    "RatSLAMConfig",
+    "ReentryFusionConfig",
+]

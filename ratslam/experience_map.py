@@ -15,13 +15,13 @@ Zone of influence (eqs 2-9), with r and Δθ' measured wrap-aware in cell units:
 No experience with positive energy -> a new experience at the current pose (eqs 10-11), linked
 from the previous one; otherwise the most energetic experience becomes current (with a link from
 the previous one if they are not linked yet). The switch happens anywhere within the zone of
-influence; with ``offset_transitions`` the new link is measured to the experience's own place
+influence; with ``offset_transitions`` (``ExperienceMapConfig``) the new link is measured to the experience's own place
 (the odometry composed with the inverse of the peak's offset from the experience's cells) and
 the current pose starts at that offset, so a consistent map neither gains an error nor makes
 the pose jump at a re-entry.
 
-Re-entry fusion (``reentry_position_sigma_m`` / ``reentry_heading_sigma_deg`` > 0; not in the
-paper, see RatSLAMConfig): at a switch, the pose the pose cells give (the experience's map pose
+Re-entry fusion (``reentry.position_sigma_m`` / ``reentry.heading_sigma_deg`` > 0; not in the
+paper, see ``ReentryFusionConfig``): at a switch, the pose the pose cells give (the experience's map pose
 composed with the peak's offset) and the pose the map and the odometry predict (the current pose)
 are fused by a Kalman update, the prediction's covariance grown from the odometry noise since
 the last re-entry; the link and the current pose use the fused pose.
@@ -131,14 +131,11 @@ class ExperienceMap:
         self._acc = np.zeros(4)  # x, y, phi, t
         # re-entry fusion (off with zero view sigmas): covariance of the current pose relative to
         # the map, in the map frame, grown by the odometry noise since the last re-entry
-        self._fuse = config.reentry_position_sigma_m > 0.0
+        fusion = config.reentry
+        self._fuse = fusion.enabled
         self._cov = np.zeros((3, 3))
         self._view_cov = np.diag(
-            [
-                config.reentry_position_sigma_m**2,
-                config.reentry_position_sigma_m**2,
-                math.radians(config.reentry_heading_sigma_deg) ** 2,
-            ]
+            [fusion.position_sigma_m**2, fusion.position_sigma_m**2, math.radians(fusion.heading_sigma_deg) ** 2]
         )
         self._grid = np.array(config.shape, dtype=float)
         self._divisor_key = None
@@ -209,27 +206,27 @@ class ExperienceMap:
 
     def _propagate(self, dt: float, v_trans: float) -> None:
         """Grow the pose covariance by one tick of odometry noise (first-order, map frame)."""
-        cfg = self.config
+        cfg = self.config.reentry
         th = self.pose[2]
         c, s = math.cos(th), math.sin(th)
         step = v_trans * dt
         F = np.array([[1.0, 0.0, -s * step], [0.0, 1.0, c * step], [0.0, 0.0, 1.0]])
-        sv, sw = (cfg.odom_speed_noise * dt) ** 2, (cfg.odom_heading_noise * dt) ** 2
+        sv, sw = (cfg.odom_speed_noise_m_s * dt) ** 2, (cfg.odom_heading_noise_rad_s * dt) ** 2
         Q = np.array([[c * c * sv, c * s * sv, 0.0], [c * s * sv, s * s * sv, 0.0], [0.0, 0.0, sw]])
         self._cov = F @ self._cov @ F.T + Q
 
     # ------------------------------------------------------------------ eqs 2-9
     def energy(self, peak_cell: np.ndarray, view: int, ids: np.ndarray | None = None) -> np.ndarray:
         """Energy E_i (eqs 2-9) of experiences ``ids`` (default: all) for a peak and a view."""
-        cfg = self.config
+        cfg = self.config.experience_map
         if ids is None:
             ids = np.arange(self._exp.n)
         cells = self._exp.cols["cell"][ids]
         d = np.abs(cells - peak_cell)
         d = np.minimum(d, self._grid - d)  # wrap-aware
         r = np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2)  # eq 3
-        e_xy = np.maximum(1.0 - r / cfg.r_inf, 0.0)  # eq 2
-        e_th = np.maximum(1.0 - d[:, 2] / cfg.theta_inf, 0.0)  # eqs 4-5
+        e_xy = np.maximum(1.0 - r / cfg.r_inf_cells, 0.0)  # eq 2
+        e_th = np.maximum(1.0 - d[:, 2] / cfg.theta_inf_cells, 0.0)  # eqs 4-5
         e_v = (self._exp.cols["view"][ids] == view).astype(float)  # eqs 6-8
         if cfg.energy == "sum":
             return e_v * (e_xy + e_th)  # eq 9
@@ -298,7 +295,9 @@ class ExperienceMap:
             self._enter(j, tick)
             return "create"
         if best != self.current:
-            offset = self.peak_offset(best, peak_cell) if self.config.offset_transitions else (0.0, 0.0, 0.0)
+            offset = (
+                self.peak_offset(best, peak_cell) if self.config.experience_map.offset_transitions else (0.0, 0.0, 0.0)
+            )
             if self.current >= 0 and self._fuse:
                 offset = self.fuse_reentry(best, offset)
             if self.current >= 0:
@@ -328,7 +327,7 @@ class ExperienceMap:
     def peak_offset(self, j: int, peak_cell: np.ndarray) -> tuple[float, float, float]:
         """Where the pose-cell peak is relative to experience ``j``'s cells, in ``j``'s frame:
         (forward m, left m, heading rad), from the wrap-aware cell difference."""
-        cfg = self.config
+        cfg = self.config.pose_cells
         cell = self._exp.cols["cell"][j]
         d = np.asarray(peak_cell, dtype=float) - cell
         d -= self._grid * np.round(d / self._grid)  # wrap-aware
@@ -364,9 +363,9 @@ class ExperienceMap:
     def _inverse_degree(self) -> np.ndarray:
         """Per-experience 1 / link count for the stable form (empty for the printed sums);
         recomputed only when the map grows."""
-        key = (self._exp.n, self._link.n, self.config.correction)
+        key = (self._exp.n, self._link.n, self.config.experience_map.correction)
         if self._divisor_key != key:
-            if self.config.correction == "stable":
+            if self.config.experience_map.correction == "stable":
                 self._divisor = 1.0 / np.maximum(self._exp.cols["degree"][: self._exp.n], 1.0)
             else:
                 self._divisor = _NO_DIVISOR
@@ -378,7 +377,7 @@ class ExperienceMap:
         n, m = self._exp.n, self._link.n
         if m == 0:
             return
-        cfg = self.config
+        cfg = self.config.experience_map
         ex, lk = self._exp.cols, self._link.cols
         map_kernels.correct(
             ex["x"],

@@ -2,13 +2,13 @@
 
 * Scene ``-1`` means nothing recognisable: no view cell is active, nothing is learnt or injected.
 * A view cell's activity is ``V = max(1 - fatigue, 0)``. Fatigue grows by
-  ``view_fatigue_rate`` on every tick the scene is in view and recovers by
-  ``view_fatigue_recovery`` on every tick it is not (capped at :data:`FATIGUE_CAP`). A scene that
+  ``local_view.fatigue_rate`` on every tick the scene is in view and recovers by
+  ``local_view.fatigue_recovery`` on every tick it is not (capped at :data:`FATIGUE_CAP`). A scene that
   stays in view for a while therefore acts mostly at its onset; it cannot pin the packet.
 * Learning (Hebbian, max form): ``β_v(c) <- max(β_v(c), λ · V · P(c))`` for the active pose cells
-  ``c`` with ``P(c) >= view_learn_threshold · max P``.
+  ``c`` with ``P(c) >= learn_threshold · max P``.
 * Injection: a familiar view adds ``δ · V · β_v(c)`` to pose cell ``c``, using only associations
-  learnt at least ``view_min_age_ticks`` ago (a recently learnt view never drags the packet back
+  learnt at least ``min_age_ticks`` ago (a recently learnt view never drags the packet back
   to where it was just learnt).
 """
 
@@ -21,7 +21,7 @@ from .pose_cells import PoseCells
 from .view_kernels import merge_associations
 
 FATIGUE_CAP = 2.0
-"""Fatigue never exceeds this, so a view recovers within ``FATIGUE_CAP / view_fatigue_recovery``
+"""Fatigue never exceeds this, so a view recovers within ``FATIGUE_CAP / fatigue_recovery``
 ticks however long its scene was in view."""
 
 
@@ -63,7 +63,7 @@ class LocalView:
     def inject(self, scene_id: int, tick: int, pose_cells: PoseCells) -> int:
         """Activate the view cell of ``scene_id`` (creating it if new) and, if it is familiar,
         inject energy into the pose cells. Returns the active view cell (-1 for scene -1)."""
-        cfg = self.config
+        cfg = self.config.local_view
         self.injected = 0.0
         if scene_id < 0:
             self.current, self.activity = -1, 0.0
@@ -73,10 +73,10 @@ class LocalView:
             v = self._new_cell(scene_id)
         self.current = v
         self.activity = max(1.0 - float(self.fatigue[v]), 0.0)
-        if self.activity > 0.0 and cfg.view_inject > 0.0 and self._assoc_lin[v].size:
-            old = self._assoc_tick[v] <= tick - cfg.view_min_age_ticks
+        if self.activity > 0.0 and cfg.inject > 0.0 and self._assoc_lin[v].size:
+            old = self._assoc_tick[v] <= tick - cfg.min_age_ticks
             if np.any(old):
-                energy = (cfg.view_inject * self.activity) * self._assoc_w[v][old]
+                energy = (cfg.inject * self.activity) * self._assoc_w[v][old]
                 pose_cells.inject_linear(self._assoc_lin[v][old], energy)
                 self.injected = float(energy.sum())
         return v
@@ -85,26 +85,31 @@ class LocalView:
         """Hebbian learning between the active view cell and the active pose cells, then
         fatigue/recovery bookkeeping for every view cell. Call once per tick after the pose
         cells have been updated."""
-        cfg = self.config
+        cfg = self.config.local_view
         v = self.current
         if v >= 0 and self.activity > 0.0:
-            lin, p = pose_cells.cells_at_least(cfg.view_learn_threshold)
-            w = (cfg.view_learn_rate * self.activity) * p
+            lin, p = pose_cells.cells_at_least(cfg.learn_threshold)
+            w = (cfg.learn_rate * self.activity) * p
             self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v] = merge_associations(
                 self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v], lin, w, tick
             )
         if self.fatigue.size:
             active_fatigue = float(self.fatigue[v]) if v >= 0 else 0.0
-            self.fatigue -= cfg.view_fatigue_recovery
+            self.fatigue -= cfg.fatigue_recovery
             np.maximum(self.fatigue, 0.0, out=self.fatigue)
             if v >= 0:
-                self.fatigue[v] = min(active_fatigue + cfg.view_fatigue_rate, FATIGUE_CAP)
+                self.fatigue[v] = min(active_fatigue + cfg.fatigue_rate, FATIGUE_CAP)
 
     def associations(self, view_cell: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Associations of one view cell: cells (k, 3) as (x', y', θ'), weights (k,), learnt ticks (k,)."""
         lin = self._assoc_lin[view_cell]
         cells = np.stack(
-            (lin // self._strides[0], (lin // self._strides[1]) % self.config.ny, lin % self.config.n_theta), axis=1
+            (
+                lin // self._strides[0],
+                (lin // self._strides[1]) % self.config.pose_cells.ny,
+                lin % self.config.pose_cells.n_theta,
+            ),
+            axis=1,
         )
         return cells, self._assoc_w[view_cell].copy(), self._assoc_tick[view_cell].copy()
 

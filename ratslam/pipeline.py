@@ -10,12 +10,13 @@ from pathlib import Path
 import numpy as np
 
 from .config import RatSLAMConfig
+from .config_fields import from_dict
 from .experience_map import ExperienceMap
 from .local_view import LocalView
 from .pose_cells import PoseCells
 from .snaps import is_snap
 
-_FORMAT = "ratslam-state-2"  # 2: adds the step index of the latest snap
+_FORMAT = "ratslam-state-3"  # 2: adds the step index of the latest snap; 3: nested config
 
 
 class RatSLAM:
@@ -25,8 +26,8 @@ class RatSLAM:
     if it is familiar; the pose cells iterate and path-integrate the odometry (plus the optional
     path-integration bias); the view cell learns its association with the active pose cells; the
     experience map integrates the wheel odometry, selects/creates the current experience
-    (eqs 2-11) once the scene has been seen for ``view_confirm_ticks`` consecutive ticks and the
-    peak has not snapped for ``snap_settle_ticks``, and runs its correction (eqs 12-14).
+    (eqs 2-11) once the scene has been seen for ``experience_map.view_confirm_ticks`` consecutive
+    ticks and the peak has not snapped for ``experience_map.snap_settle_ticks``, and runs its correction (eqs 12-14).
 
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
     """
@@ -38,7 +39,7 @@ class RatSLAM:
         self.experience_map = ExperienceMap(self._config)
         self._tick = 0
         self._snapped = False
-        self._bias = math.radians(self._config.pi_bias_deg_s)
+        self._bias = math.radians(self._config.pose_cells.path_integration_bias_deg_s)
         self._grid = np.array(self._config.shape, dtype=float)
         self._last_scene, self._scene_run = -1, 0  # consecutive ticks of the current scene
         self._last_snap = -(1 << 62)  # step index of the latest snap
@@ -55,20 +56,20 @@ class RatSLAM:
         pc.step(v_trans * dt, (v_rot + self._bias) * dt)
         self.local_view.learn(k, pc)
         new_peak = pc.peak
-        self._snapped = bool(is_snap(old_peak, new_peak, self._grid, self._config.snap_cells))
+        self._snapped = bool(is_snap(old_peak, new_peak, self._grid, self._config.pose_cells.snap_threshold_cells))
         if scene_id == self._last_scene:
             self._scene_run += 1
         else:
             self._last_scene, self._scene_run = scene_id, 1
         em = self.experience_map
         em.integrate(dt, v_trans, v_rot)
-        confirmed = scene_id if self._scene_run >= self._config.view_confirm_ticks else -1
+        confirmed = scene_id if self._scene_run >= self._config.experience_map.view_confirm_ticks else -1
         if self._snapped:
             self._last_snap = k
-        if k - self._last_snap < self._config.snap_settle_ticks:
+        if k - self._last_snap < self._config.experience_map.snap_settle_ticks:
             confirmed = -1  # the peak has not settled yet
         em.update(k, new_peak, confirmed)
-        for _ in range(self._config.correction_iterations):
+        for _ in range(self._config.experience_map.correction_iterations):
             em.correct()
         self._tick += 1
 
@@ -103,12 +104,12 @@ class RatSLAM:
     def peak_metres(self) -> np.ndarray:
         """Peak as (x m, y m, θ rad): cell coordinates times the cell sizes."""
         p = self.pose_cells.peak
-        c = self._config
+        c = self._config.pose_cells
         return np.array([p[0] * c.cell_size_m, p[1] * c.cell_size_m, p[2] * c.theta_cell_rad])
 
     @property
     def snapped(self) -> bool:
-        """Whether this tick's peak jumped by more than ``config.snap_cells`` cells (wrap-aware;
+        """Whether this tick's peak jumped by more than ``pose_cells.snap_threshold_cells`` (wrap-aware;
         :func:`ratslam.snaps.is_snap`)."""
         return self._snapped
 
@@ -193,7 +194,7 @@ class RatSLAM:
                 f"{path}: not a RatSLAM state file of this version "
                 f"(format {meta.get('format')!r}, expected {_FORMAT!r})"
             )
-        obj = cls(RatSLAMConfig(**meta["config"]))
+        obj = cls(from_dict(RatSLAMConfig, meta["config"]))
         obj.pose_cells.set_state(s)
         obj.local_view.set_state(s)
         obj.experience_map.set_state(s)

@@ -38,11 +38,12 @@ def gaussian_kernel(sigma: float, radius: int) -> np.ndarray:
 
 def axis_kernels(config: RatSLAMConfig) -> tuple[tuple, tuple]:
     """Excitation and inhibition kernels per axis (θ', x', y'): heading has its own widths."""
-    k_exc = gaussian_kernel(config.excite_sigma, config.excite_radius)
-    k_inh = gaussian_kernel(config.inhibit_sigma, config.inhibit_radius)
+    pc = config.pose_cells
+    k_exc = gaussian_kernel(pc.excite_sigma_cells, pc.excite_radius_cells)
+    k_inh = gaussian_kernel(pc.inhibit_sigma_cells, pc.inhibit_radius_cells)
     return (
-        (gaussian_kernel(config.excite_sigma_theta, config.excite_radius), k_exc, k_exc),
-        (gaussian_kernel(config.inhibit_sigma_theta, config.inhibit_radius), k_inh, k_inh),
+        (gaussian_kernel(pc.excite_sigma_theta_cells, pc.excite_radius_cells), k_exc, k_exc),
+        (gaussian_kernel(pc.inhibit_sigma_theta_cells, pc.inhibit_radius_cells), k_inh, k_inh),
     )
 
 
@@ -77,22 +78,23 @@ class PoseCells:
 
     def __init__(self, config: RatSLAMConfig, start_cell: tuple[int, int, int] | None = None):
         self.config = config
-        self._n = np.array([config.n_theta, config.nx, config.ny], dtype=np.int64)  # (θ, x, y)
+        pc = config.pose_cells
+        self._n = np.array([pc.n_theta, pc.nx, pc.ny], dtype=np.int64)  # (θ, x, y)
         # per-axis kernels as one-row tap tables for the compiled operators
         k_exc, k_inh = axis_kernels(config)
         self._taps_exc = tuple(np.ascontiguousarray(k[None, :]) for k in k_exc)
         self._taps_inh = tuple(np.ascontiguousarray(k[None, :]) for k in k_inh)
         self._off_spread = np.zeros(1, dtype=np.int64)
-        self._off_within = np.array([-config.inhibit_radius], dtype=np.int64)
+        self._off_within = np.array([-pc.inhibit_radius_cells], dtype=np.int64)
         # boxes closer than this (empty cells, on every axis) interact within one iteration
-        self._reach = 2 * config.excite_radius + config.inhibit_radius
+        self._reach = 2 * pc.excite_radius_cells + pc.inhibit_radius_cells
         if start_cell is None:
-            start_cell = (config.nx // 2, config.ny // 2, 0)
+            start_cell = (pc.nx // 2, pc.ny // 2, 0)
         x, y, t = start_cell
-        start = np.array([t % config.n_theta, x % config.nx, y % config.ny], dtype=np.int64)
+        start = np.array([t % pc.n_theta, x % pc.nx, y % pc.ny], dtype=np.int64)
         self._boxes: list[list] = [[start, np.ones((1, 1, 1))]]
         self._peak = np.array([float(start[1]), float(start[2]), float(start[0])])
-        angles = np.arange(config.n_theta) * config.theta_cell_rad
+        angles = np.arange(pc.n_theta) * pc.theta_cell_rad
         self._cos = np.cos(angles)
         self._sin = np.sin(angles)
 
@@ -250,13 +252,13 @@ class PoseCells:
 
         ``v_trans_dt`` is the distance travelled this tick (m), ``v_rot_dt`` the heading change
         (rad), both already including any path-integration bias. The translation is scaled by
-        ``config.pc_trans_gain`` (lattice-lag compensation, see the config).
+        ``config.pose_cells.trans_gain`` (lattice-lag compensation, see the config).
         """
-        cfg = self.config
+        cfg = self.config.pose_cells
         if len(self._boxes) > 1:
             self._merge_interacting()
         n = self._n
-        r = cfg.excite_radius
+        r = cfg.excite_radius_cells
         new_boxes = []
         total = 0.0
         te, ti = self._taps_exc, self._taps_inh
@@ -289,7 +291,7 @@ class PoseCells:
         for box in new_boxes:
             box[1] *= scale
             # 5. path integration
-            self._path_integrate_box(box, v_trans_dt * cfg.pc_trans_gain, v_rot_dt)
+            self._path_integrate_box(box, v_trans_dt * cfg.trans_gain, v_rot_dt)
         self._boxes = new_boxes
         self._update_peak()
 
@@ -306,13 +308,13 @@ class PoseCells:
             self._n,
             self._cos,
             self._sin,
-            v_trans_dt / self.config.cell_size_m,
-            v_rot_dt / self.config.theta_cell_rad,
+            v_trans_dt / self.config.pose_cells.cell_size_m,
+            v_rot_dt / self.config.pose_cells.theta_cell_rad,
         )
 
     def _update_peak(self) -> None:
         """Strongest cell refined by the circular weighted mean of its neighbourhood."""
-        boxes, n, rad = self._boxes, self._n, self.config.peak_radius
+        boxes, n, rad = self._boxes, self._n, self.config.pose_cells.peak_radius_cells
         best = [K.strongest_cell(act) for _, act in boxes]
         bi = max(range(len(boxes)), key=lambda i: best[i][0]) if len(boxes) > 1 else 0
         cg = (boxes[bi][0] + best[bi][1]) % n  # global strongest cell (θ, x, y)

@@ -24,12 +24,13 @@ class FullGridPoseCells:
     def __init__(self, config: RatSLAMConfig, start_cell: tuple[int, int, int] | None = None):
         self.config = config
         self._k_exc, self._k_inh = axis_kernels(config)
+        pc = config.pose_cells
         if start_cell is None:
-            start_cell = (config.nx // 2, config.ny // 2, 0)
-        self._act = np.zeros((config.n_theta, config.nx, config.ny))  # (θ, x, y)
+            start_cell = (pc.nx // 2, pc.ny // 2, 0)
+        self._act = np.zeros((pc.n_theta, pc.nx, pc.ny))  # (θ, x, y)
         x, y, t = start_cell
-        self._act[t % config.n_theta, x % config.nx, y % config.ny] = 1.0
-        self._angles = np.arange(config.n_theta) * config.theta_cell_rad
+        self._act[t % pc.n_theta, x % pc.nx, y % pc.ny] = 1.0
+        self._angles = np.arange(pc.n_theta) * pc.theta_cell_rad
 
     @property
     def activity(self) -> np.ndarray:
@@ -40,10 +41,10 @@ class FullGridPoseCells:
     def peak(self) -> np.ndarray:
         """Peak (x', y', θ'): strongest cell refined by the circular weighted mean of its
         neighbourhood (same rule as the windowed network)."""
-        c = self.config
+        c = self.config.pose_cells
         n = np.array([c.n_theta, c.nx, c.ny])
         cg = np.array(np.unravel_index(int(np.argmax(self._act)), self._act.shape))
-        d = np.arange(-c.peak_radius, c.peak_radius + 1)
+        d = np.arange(-c.peak_radius_cells, c.peak_radius_cells + 1)
         sub = self._act[np.ix_(*[(cg[a] + d) % n[a] for a in range(3)])]
         sums = (sub.sum(axis=(1, 2)), sub.sum(axis=(0, 2)), sub.sum(axis=(0, 1)))
         peak = np.empty(3)
@@ -71,12 +72,12 @@ class FullGridPoseCells:
         """Add ``energy`` at integer cells (k, 3) of (x', y', θ')."""
         cells = np.atleast_2d(np.asarray(cells, dtype=np.int64))
         energy = np.broadcast_to(np.asarray(energy, dtype=float), (cells.shape[0],))
-        c = self.config
+        c = self.config.pose_cells
         np.add.at(self._act, (cells[:, 2] % c.n_theta, cells[:, 0] % c.nx, cells[:, 1] % c.ny), energy)
 
     def inject_linear(self, lin: np.ndarray, energy) -> None:
         """Add ``energy`` at linear indices ``(x' * ny + y') * n_theta + θ'``."""
-        c = self.config
+        c = self.config.pose_cells
         lin = np.asarray(lin, dtype=np.int64)
         self.inject(np.stack((lin // (c.ny * c.n_theta), (lin // c.n_theta) % c.ny, lin % c.n_theta), axis=1), energy)
 
@@ -87,14 +88,14 @@ class FullGridPoseCells:
 
     def step(self, v_trans_dt: float, v_rot_dt: float) -> None:
         """Excite, inhibit, global inhibition, normalise, path integrate (whole grid)."""
-        c = self.config
+        c = self.config.pose_cells
         a = self._blur(self._act, self._k_exc)
         if c.inhibit_weight > 0.0:
             a = a - c.inhibit_weight * self._blur(a, self._k_inh)
         a = np.maximum(a - c.global_inhibition, 0.0)
         a /= a.sum()
         if v_trans_dt != 0.0:
-            dist = v_trans_dt * c.pc_trans_gain / c.cell_size_m
+            dist = v_trans_dt * c.trans_gain / c.cell_size_m
             out = np.empty_like(a)
             for t in range(c.n_theta):
                 layer = a[t]

@@ -102,7 +102,8 @@ def test_import_real_odometry_then_replay_it(tmp_path):
     assert m["ticks"] == len(log.read_text().splitlines()) - 1
     # no config given: derived from the log's scale (1.5 m/s at 5 Hz over these 200 s, 2 m labels)
     # (the iSAM2 recovery that the defaults meet on this log is covered in test_gtsam_real_log)
-    assert m["config"]["gtsam"]["keyframe_distance"] == 1.0 and m["config"]["ratslam"]["pc_trans_gain"] == 1.0
+    config = m["config"]
+    assert config["gtsam"]["keyframes"]["distance_m"] == 1.0 and config["ratslam"]["pose_cells"]["trans_gain"] == 1.0
     assert "m per tick (x8 of the reference" in m["derived_scale"] and "(the defaults)" not in m["derived_scale"]
     assert "# Measured from the log" in (out / "config.toml").read_text()
     assert all(np.isfinite(v) for v in m["ate"].values())

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from ratslam import RatSLAMConfig
+from ratslam import RatSLAMConfig, ReentryFusionConfig
 from ratslam.experience_map import ExperienceMap, wrap_angle
 
 CFG = RatSLAMConfig()
@@ -27,7 +27,7 @@ def test_zone_of_influence_eqs_2_to_9():
     E = E_V (E_xy + E_θ) (sum) or E_V E_xy E_θ (product); distances wrap."""
     cells = [(10.0, 10.0, 5.0), (11.0, 10.0, 6.0), (10.0, 10.0, 35.0), (59.5, 10.0, 5.0)]
     for energy in ("sum", "product"):
-        cfg = CFG.replace(energy=energy, r_inf=2.0, theta_inf=2.0)
+        cfg = CFG.replace(experience_map={"energy": energy, "r_inf_cells": 2.0, "theta_inf_cells": 2.0})
         em = make_map(cfg, poses=[(0, 0, 0)] * 4, cells=cells)
         em._exp.cols["view"][:4] = 7
         e = em.energy(np.array([10.0, 10.0, 5.0]), 7)
@@ -45,15 +45,15 @@ def test_sum_energy_matches_on_heading_alone_product_does_not():
     """ARCHITECTURE.md trap: eq 9's sum is positive when only θ' is close; the product form is not."""
     cells = [(40.0, 40.0, 9.0)]
     far_peak = np.array([10.0, 10.0, 9.0])  # metres away, same heading
-    e_sum = make_map(CFG.replace(energy="sum"), [(0, 0, 0)], cells=cells).energy(far_peak, 0)
-    e_prod = make_map(CFG.replace(energy="product"), [(0, 0, 0)], cells=cells).energy(far_peak, 0)
+    e_sum = make_map(CFG.replace(experience_map={"energy": "sum"}), [(0, 0, 0)], cells=cells).energy(far_peak, 0)
+    e_prod = make_map(CFG.replace(experience_map={"energy": "product"}), [(0, 0, 0)], cells=cells).energy(far_peak, 0)
     assert e_sum[0] > 0.0 and e_prod[0] == 0.0
 
 
 def test_new_experience_exactly_when_no_experience_has_positive_energy():
     """Eqs 10-11: a new experience is created iff no experience has positive energy."""
     for energy in ("sum", "product"):
-        cfg = CFG.replace(energy=energy, r_inf=2.0, theta_inf=2.0)
+        cfg = CFG.replace(experience_map={"energy": energy, "r_inf_cells": 2.0, "theta_inf_cells": 2.0})
         em = ExperienceMap(cfg)
         rng = np.random.default_rng(1)
         for tick in range(400):
@@ -112,7 +112,7 @@ def _revisit_with_offset(offset_transitions: bool) -> ExperienceMap:
     """Experiences 0, 1, 2 at 0, 2 and 4 m east (cells (10, 10, 0), (18, 10, 0), (26, 10, 0));
     the robot then returns to (0.25 m, 0.25 m, 0.1 rad) of experience 0, where the pose-cell
     peak is one cell east and north of experience 0's cells, and sees experience 0's view."""
-    em = ExperienceMap(CFG.replace(offset_transitions=offset_transitions))
+    em = ExperienceMap(CFG.replace(experience_map={"offset_transitions": offset_transitions}))
     for k in range(3):
         if k:
             em.integrate(1.0, 2.0, 0.0)
@@ -122,7 +122,7 @@ def _revisit_with_offset(offset_transitions: bool) -> ExperienceMap:
     em.integrate(1.0, math.hypot(3.75, 0.25), 0.0)
     em.integrate(1.0, 0.0, 0.1 - bearing)
     assert em.pose == pytest.approx((0.25, 0.25, 0.1))
-    assert em.update(3, np.array([11.0, 11.0, 0.1 / CFG.theta_cell_rad]), 5) == "switch"
+    assert em.update(3, np.array([11.0, 11.0, 0.1 / CFG.pose_cells.theta_cell_rad]), 5) == "switch"
     return em
 
 
@@ -149,7 +149,7 @@ def test_paper_transition_assumes_the_robot_is_at_the_experience():
 
 
 def _three_experience_map(correction):
-    cfg = CFG.replace(correction=correction, alpha_theta=0.5, alpha_d=0.5)
+    cfg = CFG.replace(experience_map={"correction": correction, "alpha_theta": 0.5, "alpha_d": 0.5})
     poses = [(0.0, 0.0, 0.0), (1.2, 0.1, 0.1), (1.0, 1.0, 1.5)]
     links = [
         (0, 1, 1.0, 0.0, 0.0),
@@ -192,7 +192,7 @@ def test_eqs_12_to_14_stable_form_is_alpha_times_mean_residual():
 def _square_loop_map(correction, n_side=4, seed=0):
     """Experiences around a 4 m square, links with exact odometry, poses from drifted odometry,
     closed by a link back to the first experience (as after a snap at the start)."""
-    cfg = CFG.replace(correction=correction)
+    cfg = CFG.replace(experience_map={"correction": correction})
     rng = np.random.default_rng(seed)
     true = []
     for side in range(4):
@@ -245,7 +245,7 @@ def test_printed_correction_diverges_where_experiences_have_many_links():
         c, s = math.cos(p[i, 2]), math.sin(p[i, 2])
         em.add_transition(i, j, c * dx + s * dy, -s * dx + c * dy, float(wrap_angle(p[j, 2] - p[i, 2])), 1.0)
     em.set_poses(em.poses + np.random.default_rng(1).normal(0, 0.05, (n, 3)))
-    stable = ExperienceMap(CFG.replace(correction="stable"))
+    stable = ExperienceMap(CFG.replace(experience_map={"correction": "stable"}))
     stable.set_state(em.get_state())
     start = np.abs(em.link_residuals()).sum()
     with np.errstate(all="ignore"):
@@ -272,19 +272,21 @@ def test_duplicate_transitions_are_not_added():
 
 # ---------------------------------------------------------------- re-entry fusion (not in the paper)
 FUSE = CFG.replace(
-    reentry_position_sigma_m=0.5, reentry_heading_sigma_deg=5.0, odom_speed_noise=0.1, odom_heading_noise=0.01
+    reentry=ReentryFusionConfig(
+        position_sigma_m=0.5, heading_sigma_deg=5.0, odom_speed_noise_m_s=0.1, odom_heading_noise_rad_s=0.01
+    )
 )
 
 
 def test_reentry_fusion_is_off_by_default_and_needs_both_sigmas():
-    assert CFG.reentry_position_sigma_m == 0.0 and CFG.reentry_heading_sigma_deg == 0.0
+    assert CFG.reentry.position_sigma_m == 0.0 and CFG.reentry.heading_sigma_deg == 0.0
     em = ExperienceMap(CFG)
     em.integrate(1.0, 1.0, 0.1)
     np.testing.assert_array_equal(em._cov, 0.0)  # nothing is tracked when off
-    with pytest.raises(ValueError):
-        CFG.replace(reentry_position_sigma_m=0.5)
-    with pytest.raises(ValueError):
-        CFG.replace(reentry_heading_sigma_deg=3.0, reentry_position_sigma_m=0.5, odom_speed_noise=-1.0)
+    with pytest.raises(ValueError, match="^reentry.position_sigma_m/heading_sigma_deg: both 0"):
+        CFG.replace(reentry={"position_sigma_m": 0.5})
+    with pytest.raises(ValueError, match="^reentry.odom_speed_noise_m_s: must be a finite number >= 0"):
+        CFG.replace(reentry={"heading_sigma_deg": 3.0, "position_sigma_m": 0.5, "odom_speed_noise_m_s": -1.0})
 
 
 def test_odometry_covariance_grows_along_track_and_across_it_through_the_heading():

@@ -78,7 +78,7 @@ def test_run_directory_contract(figure_runs):
         assert len(lines[0].split()) == 8
     prov = metrics["provenance"]
     assert prov["git_commit"] and prov["packages"]["gtsam"] and prov["seed"] == 0
-    assert metrics["variants"]["paper"]["config"]["ratslam"]["pi_bias_deg_s"] == 1.5
+    assert metrics["variants"]["paper"]["config"]["ratslam"]["pose_cells"]["path_integration_bias_deg_s"] == 1.5
     report = (out / "report.md").read_text()
     assert "| claim | measured | held |" in report
     for png in ("a_world.png", "b_pose_cells.png", "c_experience_map.png", "d_gtsam.png"):

@@ -25,7 +25,7 @@ def result(world, duration, fp, backend, bias=0.0, estimate_bias=False):
     key = (world, duration, fp, backend, bias, estimate_bias)
     if key not in _runs:
         log = sim_log(world, duration, fp, bias)
-        cfg = PoseGraphConfig(backend=backend, estimate_yaw_bias=estimate_bias)
+        cfg = PoseGraphConfig().replace(backend={"kind": backend}, yaw_bias={"estimate": estimate_bias})
         _runs[key] = (run_slam(log, cfg), log)
     return _runs[key]
 
@@ -37,7 +37,7 @@ def ate(world, duration, fp, backend, **kw):
 
 def odometry_ate(world, duration, bias=0.0):
     log = sim_log(world, duration, 0.0, bias)
-    return keyframe_ate(run_slam(log, PoseGraphConfig(online=False), scenes=False), log)
+    return keyframe_ate(run_slam(log, PoseGraphConfig().replace(optimisation={"online": False}), scenes=False), log)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -154,7 +154,7 @@ def test_yaw_bias_3deg_needs_the_bias_variable():
 def test_deterministic_on_a_simulator_stream(backend):
     """Same stream and config -> bit-identical keyframe poses, closures and weights."""
     log = sim_log(*FLOOR, 0.1)
-    a, b = (run_slam(log, PoseGraphConfig(backend=backend)) for _ in range(2))
+    a, b = (run_slam(log, PoseGraphConfig().replace(backend={"kind": backend})) for _ in range(2))
     assert np.array_equal(a.keyframe_poses, b.keyframe_poses)
     assert np.array_equal(a.loop_closures, b.loop_closures)
     assert np.array_equal(a.closure_weights, b.closure_weights)

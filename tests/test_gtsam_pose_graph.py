@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from baselines import PoseGraphConfig, PoseGraphSLAM
+from baselines import BackendConfig, KeyframeConfig, OptimisationConfig, PoseGraphConfig, PoseGraphSLAM
 from baselines.closures import SceneIndex
 
 DT = 1.0 / 7.0
@@ -95,7 +95,7 @@ def test_pose_before_any_step_and_tick_counting():
 
 
 def test_keyframes_by_distance_and_heading():
-    cfg = PoseGraphConfig(keyframe_distance=0.5, keyframe_angle=math.radians(30), keyframe_on_scene_change=False)
+    cfg = PoseGraphConfig(keyframes=KeyframeConfig(distance_m=0.5, angle_rad=math.radians(30), on_scene_change=False))
     slam = PoseGraphSLAM(cfg)
     for _ in range(70):  # 3 m straight
         slam.step(DT, 0.3, 0.0, -1)
@@ -109,7 +109,7 @@ def test_keyframes_by_distance_and_heading():
 
 
 def test_scene_onset_takes_a_keyframe():
-    slam = PoseGraphSLAM(PoseGraphConfig(keyframe_distance=10.0))
+    slam = PoseGraphSLAM(PoseGraphConfig(keyframes=KeyframeConfig(distance_m=10.0)))
     for k in range(10):
         slam.step(DT, 0.3, 0.0, 7 if k >= 5 else -1)
     assert slam.keyframe_ticks.tolist() == [0, 5]
@@ -129,7 +129,7 @@ def test_read_access_shapes_and_pose_follows_keyframe(stream):
     assert slam.closure_accepted.dtype == bool
     assert np.all((slam.closure_weights >= 0) & (slam.closure_weights <= 1))
     # pose = latest keyframe estimate composed with odometry since (less than one keyframe apart).
-    assert np.hypot(*(np.array(slam.pose[:2]) - slam.keyframe_poses[-1, :2])) < slam.config.keyframe_distance + 0.05
+    assert np.hypot(*(np.array(slam.pose[:2]) - slam.keyframe_poses[-1, :2])) < slam.config.keyframes.distance_m + 0.05
 
 
 def test_no_scene_means_no_closure(stream):
@@ -139,14 +139,14 @@ def test_no_scene_means_no_closure(stream):
 
 
 def test_closures_link_only_distant_earlier_sightings(stream):
-    slam = run(PoseGraphConfig(backend="gaussian"), stream)
+    slam = run(PoseGraphConfig(backend=BackendConfig(kind="gaussian")), stream)
     lc = slam.loop_closures
     scenes = slam.keyframe_scenes
     assert np.all(scenes[lc[:, 0]] == scenes[lc[:, 1]]) and np.all(scenes[lc[:, 0]] != -1)
     gt = stream[4]
     gi, gj = gt[slam.keyframe_ticks[lc[:, 0]]], gt[slam.keyframe_ticks[lc[:, 1]]]
     assert np.all(np.hypot(gi[:, 0] - gj[:, 0], gi[:, 1] - gj[:, 1]) < 1.5)  # noiseless labels: all true
-    # Odometric path between the two keyframes is at least closure_min_travel: they are laps apart.
+    # Odometric path between the two keyframes is at least closures.min_travel_m: they are laps apart.
     assert np.all(slam.keyframe_times[lc[:, 1]] - slam.keyframe_times[lc[:, 0]] > 4.0 / 0.3)
 
 
@@ -172,7 +172,7 @@ def test_closure_tie_break_nearest_recent_or_earliest():
 
 
 def test_gaussian_weights_are_one(stream):
-    slam = run(PoseGraphConfig(backend="gaussian"), stream)
+    slam = run(PoseGraphConfig(backend=BackendConfig(kind="gaussian")), stream)
     assert np.all(slam.closure_weights == 1.0) and slam.closure_accepted.all()
 
 
@@ -180,7 +180,7 @@ def test_robust_rejects_a_planted_false_positive():
     """A far-away scene match gets a small weight from the robust kernel and GNC."""
     dt, v, w, scene, gt = square_stream(laps=2, fp_ticks=(705,))
     for backend in ("robust", "gnc"):
-        slam = run(PoseGraphConfig(backend=backend), (dt, v, w, scene, gt), finalize=True)
+        slam = run(PoseGraphConfig(backend=BackendConfig(kind=backend)), (dt, v, w, scene, gt), finalize=True)
         lc = slam.loop_closures
         k = slam.keyframe_ticks
         far = np.hypot(*(gt[k[lc[:, 0]], :2] - gt[k[lc[:, 1]], :2]).T) > 1.5
@@ -191,7 +191,7 @@ def test_robust_rejects_a_planted_false_positive():
 
 
 def test_offline_mode_chains_odometry_until_finalize(stream):
-    slam = run(PoseGraphConfig(online=False, final_batch=True), stream)
+    slam = run(PoseGraphConfig(optimisation=OptimisationConfig(online=False, final_batch=True)), stream)
     before = slam.keyframe_poses.copy()
     slam.finalize()
     after = slam.keyframe_poses
@@ -202,12 +202,12 @@ def test_offline_mode_chains_odometry_until_finalize(stream):
 
 def test_final_batch_agrees_with_isam2(stream):
     online = run(PoseGraphConfig(), stream, finalize=True)
-    batch = run(PoseGraphConfig(final_batch=True), stream, finalize=True)
+    batch = run(PoseGraphConfig(optimisation=OptimisationConfig(final_batch=True)), stream, finalize=True)
     assert np.allclose(online.keyframe_poses[:, :2], batch.keyframe_poses[:, :2], atol=0.05)
 
 
 def test_step_after_finalize_continues_online(stream):
-    slam = run(PoseGraphConfig(final_batch=True), stream, finalize=True)
+    slam = run(PoseGraphConfig(optimisation=OptimisationConfig(final_batch=True)), stream, finalize=True)
     k = slam.num_keyframes
     for _ in range(30):
         slam.step(DT, 0.3, 0.0, -1)
@@ -217,7 +217,7 @@ def test_step_after_finalize_continues_online(stream):
 @pytest.mark.parametrize("backend", ["gaussian", "robust", "gnc"])
 def test_deterministic(stream, backend):
     """Same input -> bit-identical keyframe poses and closure weights."""
-    cfg = PoseGraphConfig(backend=backend, final_batch=True)
+    cfg = PoseGraphConfig(backend=BackendConfig(kind=backend), optimisation=OptimisationConfig(final_batch=True))
     a, b = run(cfg, stream, finalize=True), run(cfg, stream, finalize=True)
     assert np.array_equal(a.keyframe_poses, b.keyframe_poses)
     assert np.array_equal(a.closure_weights, b.closure_weights)
@@ -232,7 +232,7 @@ def test_gnc_holds_each_closure_once_with_batched_closures():
     from worlds import simulate
 
     log = simulate("small_loop", duration=300.0, seed=0, fp_rate=0.02)
-    pg = PoseGraphSLAM(PoseGraphConfig(backend="gnc", gnc_interval=10))
+    pg = PoseGraphSLAM(PoseGraphConfig(backend=BackendConfig(kind="gnc", gnc_interval_keyframes=10)))
     for row in zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist()):
         pg.step(*row)
     pg.finalize()
@@ -257,11 +257,19 @@ def _isam_keyframes(slam):
 
 @pytest.mark.parametrize("backend", ["robust", "gnc"])
 def test_odometry_batch_gives_the_estimate_of_per_keyframe_updates(stream, backend):
-    """Odometry-only keyframes waiting for the next iSAM2 update (``odometry_batch_keyframes``)
+    """Odometry-only keyframes waiting for the next iSAM2 update (``optimisation.odometry_batch_keyframes``)
     change no estimate beyond linearisation noise: same closures, same keyframe poses and
     online pose to 1 mm, against an update on every keyframe."""
-    each = PoseGraphSLAM(PoseGraphConfig(backend=backend, odometry_batch_keyframes=1))
-    batched = PoseGraphSLAM(PoseGraphConfig(backend=backend, odometry_batch_keyframes=8))
+    each = PoseGraphSLAM(
+        PoseGraphConfig(
+            backend=BackendConfig(kind=backend), optimisation=OptimisationConfig(odometry_batch_keyframes=1)
+        )
+    )
+    batched = PoseGraphSLAM(
+        PoseGraphConfig(
+            backend=BackendConfig(kind=backend), optimisation=OptimisationConfig(odometry_batch_keyframes=8)
+        )
+    )
     dt, v, w, scene, _ = stream
     deferred_seen = 0
     for k, row in enumerate(zip(dt, v, w, scene)):
@@ -282,9 +290,11 @@ def test_odometry_batch_gives_the_estimate_of_per_keyframe_updates(stream, backe
 
 
 def test_odometry_batch_bounds_the_wait_and_spares_updates(stream):
-    """Without closures (a first lap), a keyframe waits for at most ``odometry_batch_keyframes``-1
+    """Without closures (a first lap), a keyframe waits for at most ``optimisation.odometry_batch_keyframes``-1
     others; iSAM2 gets one update per batch instead of one per keyframe."""
-    slam = PoseGraphSLAM(PoseGraphConfig(odometry_batch_keyframes=5, closure_min_travel=1e6))
+    slam = PoseGraphSLAM(
+        PoseGraphConfig().replace(optimisation={"odometry_batch_keyframes": 5}, closures={"min_travel_m": 1e6})
+    )
     dt, v, w, scene, _ = stream
     updates = 0
     real = slam._isam.update
@@ -311,7 +321,15 @@ def test_odometry_batch_bounds_the_wait_and_spares_updates(stream):
 def test_odometry_batch_leaves_the_yaw_bias_variant_unchanged(stream):
     """With the yaw-bias variable every odometry update refines the bias, so keyframes are never
     held back: bit-identical to per-keyframe updates."""
-    a = run(PoseGraphConfig(estimate_yaw_bias=True, odometry_batch_keyframes=1), stream, finalize=True)
-    b = run(PoseGraphConfig(estimate_yaw_bias=True, odometry_batch_keyframes=8), stream, finalize=True)
+    a = run(
+        PoseGraphConfig().replace(yaw_bias={"estimate": True}, optimisation={"odometry_batch_keyframes": 1}),
+        stream,
+        finalize=True,
+    )
+    b = run(
+        PoseGraphConfig().replace(yaw_bias={"estimate": True}, optimisation={"odometry_batch_keyframes": 8}),
+        stream,
+        finalize=True,
+    )
     assert np.array_equal(a.keyframe_poses, b.keyframe_poses)
     assert a.pose == b.pose and a.yaw_bias == b.yaw_bias

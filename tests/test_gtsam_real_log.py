@@ -52,14 +52,14 @@ def test_plaza_import_follows_the_observation_log_contract(plaza1_start):
 def test_derived_pose_graph_beats_plaza1_odometry():
     """The whole of Plaza 1 (32 min, 1.9 km) with the configuration derive_configs gives: the
     odometry's heading does not drift, and the revisit test (harness/scale.py) makes the pose
-    graph trust it (odom_sigma_w 0.005 instead of the rates' roughness 0.02), so scene
+    graph trust it (odometry.sigma_w_rad_s 0.005 instead of the rates' roughness 0.02), so scene
     closures no longer bend it. Measured (seed 0): keyframes 0.49 m, online 0.89 m, odometry
     1.47 m; with the roughness noise 1.58 / 1.07 m."""
     from harness.scale import derive_configs
 
     log = load_plaza("plaza1", seed=0)
     _, cfg, _ = derive_configs(log)
-    assert cfg.odom_sigma_w < 0.01
+    assert cfg.odometry.sigma_w_rad_s < 0.01
     pg = PoseGraphSLAM(cfg)
     online = np.zeros((len(log), 3))
     for k, row in enumerate(zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())):

@@ -9,7 +9,7 @@ from ratslam.pose_cells import PoseCells
 
 CFG = RatSLAMConfig()
 DT = 1.0 / 7.0
-GRID = np.array([CFG.nx, CFG.ny, CFG.n_theta], dtype=float)
+GRID = np.array([CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta], dtype=float)
 
 
 def wrapped_diff(a, b, n=GRID):
@@ -49,28 +49,28 @@ def test_hebbian_association_follows_the_active_pose_cells():
     lv.learn(0, pc)
     cells, w, ticks = lv.associations(0)
     act_cells, act = pc.active_cells()
-    keep = act >= CFG.view_learn_threshold * act.max()
+    keep = act >= CFG.local_view.learn_threshold * act.max()
     assert len(cells) == keep.sum()
     order = np.lexsort(act_cells[keep].T[::-1])
     order_w = np.lexsort(cells.T[::-1])
-    np.testing.assert_allclose(w[order_w], CFG.view_learn_rate * act[keep][order])
+    np.testing.assert_allclose(w[order_w], CFG.local_view.learn_rate * act[keep][order])
     assert np.all(ticks == 0)
     assert np.abs(wrapped_diff(cells.mean(axis=0), (12, 40, 7))).max() < 0.5
 
 
 def test_familiar_view_injects_only_old_associations():
-    """A view injects δ V β through associations at least view_min_age_ticks old; a recently
+    """A view injects δ V β through associations at least min_age_ticks old; a recently
     learnt view does not inject (ARCHITECTURE.md trap: recently learnt views must not pin the packet)."""
     lv, pc = LocalView(CFG), settled()
     lv.inject(3, 0, pc)
     lv.learn(0, pc)
     _, w, _ = lv.associations(0)
-    for k in range(1, CFG.view_min_age_ticks):  # fatigue recovers, association still young
+    for k in range(1, CFG.local_view.min_age_ticks):  # fatigue recovers, association still young
         lv.inject(-1, k, pc)
         lv.learn(k, pc)
-    lv.inject(3, CFG.view_min_age_ticks - 1, pc)
+    lv.inject(3, CFG.local_view.min_age_ticks - 1, pc)
     assert lv.injected == 0.0
-    lv.learn(CFG.view_min_age_ticks - 1, pc)
+    lv.learn(CFG.local_view.min_age_ticks - 1, pc)
     lv2, pc2 = LocalView(CFG), settled()
     lv2.inject(3, 0, pc2)
     lv2.learn(0, pc2)
@@ -79,7 +79,7 @@ def test_familiar_view_injects_only_old_associations():
         lv2.learn(k, pc2)
     lv2.inject(3, 200, pc2)
     assert lv2.activity == 1.0
-    assert lv2.injected == pytest.approx(CFG.view_inject * w.sum())
+    assert lv2.injected == pytest.approx(CFG.local_view.inject * w.sum())
 
 
 def test_fatigue_decays_a_persistent_view_and_recovers():
@@ -89,10 +89,10 @@ def test_fatigue_decays_a_persistent_view_and_recovers():
         lv.inject(8, k, pc)
         acts.append(lv.activity)
         lv.learn(k, pc)
-    assert acts[0] == 1.0 and acts[1] == pytest.approx(1 - CFG.view_fatigue_rate)
+    assert acts[0] == 1.0 and acts[1] == pytest.approx(1 - CFG.local_view.fatigue_rate)
     assert acts[-1] == 0.0
     assert lv.fatigue[0] == FATIGUE_CAP
-    for k in range(40, 40 + int(FATIGUE_CAP / CFG.view_fatigue_recovery) + 1):
+    for k in range(40, 40 + int(FATIGUE_CAP / CFG.local_view.fatigue_recovery) + 1):
         lv.inject(-1, k, pc)
         lv.learn(k, pc)
     assert lv.fatigue[0] == 0.0
@@ -114,11 +114,14 @@ def test_a_scene_in_view_for_a_while_does_not_pin_the_packet():
     slam = RatSLAM(CFG)
     scenes = np.repeat(np.arange(8), 23)
     p1 = _straight_run(slam, scenes)
-    travelled = 0.3 * DT * len(scenes) / CFG.cell_size_m
-    assert abs(wrapped_diff(p1[-1, 0], p1[0, 0] + travelled - 0.3 * DT / CFG.cell_size_m, CFG.nx)) < 1.0
+    travelled = 0.3 * DT * len(scenes) / CFG.pose_cells.cell_size_m
+    assert (
+        abs(wrapped_diff(p1[-1, 0], p1[0, 0] + travelled - 0.3 * DT / CFG.pose_cells.cell_size_m, CFG.pose_cells.nx))
+        < 1.0
+    )
     # wait (no view) until the associations are old, then drive the same corridor again,
     # starting from the same pose-cell place: put the packet back with a strong injection
-    for _ in range(CFG.view_min_age_ticks):
+    for _ in range(CFG.local_view.min_age_ticks):
         slam.step(DT, 0.0, 0.0, -1)
     start_cell = np.round(p1[0]).astype(int)
     for _ in range(20):
@@ -128,19 +131,19 @@ def test_a_scene_in_view_for_a_while_does_not_pin_the_packet():
     p2 = _straight_run(slam, scenes)
     assert np.abs(wrapped_diff(p2[-1, :2], [p0[0] + travelled, p0[1]], GRID[:2])).max() < 1.0
     # and at every tick the packet is within one cell of v*t from the start
-    expected_x = p0[0] + 0.3 * DT * np.arange(1, len(scenes) + 1) / CFG.cell_size_m
-    assert np.abs(wrapped_diff(p2[:, 0], expected_x, CFG.nx)).max() < 1.0
+    expected_x = p0[0] + 0.3 * DT * np.arange(1, len(scenes) + 1) / CFG.pose_cells.cell_size_m
+    assert np.abs(wrapped_diff(p2[:, 0], expected_x, CFG.pose_cells.nx)).max() < 1.0
 
 
 def test_naive_injection_would_pin_the_packet():
     """The same run with the guards switched off (no fatigue, associations inject at once)
     stalls path integration: this is the trap the guards avoid."""
-    cfg = CFG.replace(view_fatigue_rate=1e-9, view_min_age_ticks=1, view_inject=0.3)
+    cfg = CFG.replace(local_view={"fatigue_rate": 1e-9, "min_age_ticks": 1, "inject": 0.3})
     slam = RatSLAM(cfg)
     scenes = np.full(200, 4)
     p = _straight_run(slam, scenes)
-    travelled = 0.3 * DT * len(scenes) / CFG.cell_size_m
-    assert wrapped_diff(p[-1, 0], p[0, 0], CFG.nx) < travelled - 3.0
+    travelled = 0.3 * DT * len(scenes) / CFG.pose_cells.cell_size_m
+    assert wrapped_diff(p[-1, 0], p[0, 0], CFG.pose_cells.nx) < travelled - 3.0
 
 
 def test_state_round_trip():

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from ratslam import RatSLAMConfig
+from ratslam import PoseCellConfig, RatSLAMConfig
 from ratslam.pose_cell_kernels import cover_arc
 from ratslam.pose_cells import PoseCells, _arc_union, gaussian_kernel
 from ratslam.pose_cells_reference import FullGridPoseCells
@@ -20,7 +20,7 @@ def wrapped_diff(a, b, n):
     return np.where(d > np.asarray(n) / 2, d - n, d)
 
 
-GRID = np.array([CFG.nx, CFG.ny, CFG.n_theta], dtype=float)
+GRID = np.array([CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta], dtype=float)
 
 
 def settled(cfg=CFG, cell=None, ticks=30):
@@ -103,8 +103,8 @@ def test_straight_line_10m_peak_within_one_cell_of_vt():
         steps = int(round(10.0 / (v * DT)))
         start = pc.peak
         _drive(pc, v, 0.0, steps)
-        th = heading_cell * CFG.theta_cell_rad
-        dist = v * DT * steps / CFG.cell_size_m
+        th = heading_cell * CFG.pose_cells.theta_cell_rad
+        dist = v * DT * steps / CFG.pose_cells.cell_size_m
         expected = start + np.array([dist * math.cos(th), dist * math.sin(th), 0.0])
         err = wrapped_diff(pc.peak, expected, GRID)
         assert np.hypot(err[0], err[1]) < 1.0, (heading_cell, err)  # measured <= 0.55 cells
@@ -120,10 +120,10 @@ def test_ninety_degree_turn_peak_within_one_cell():
     for v, w, steps in legs:
         for _ in range(steps):
             pc.step(v * DT, w * DT)
-            x += v * DT * math.cos(th_rad) / CFG.cell_size_m
-            y += v * DT * math.sin(th_rad) / CFG.cell_size_m
+            x += v * DT * math.cos(th_rad) / CFG.pose_cells.cell_size_m
+            y += v * DT * math.sin(th_rad) / CFG.pose_cells.cell_size_m
             th_rad += w * DT
-    expected = np.array([x, y, th_rad / CFG.theta_cell_rad])
+    expected = np.array([x, y, th_rad / CFG.pose_cells.theta_cell_rad])
     err = wrapped_diff(pc.peak, expected, GRID)
     assert np.hypot(err[0], err[1]) < 1.0, err
     assert abs(err[2]) < 1.0, err
@@ -133,13 +133,13 @@ def test_ninety_degree_turn_peak_within_one_cell():
 def test_sub_cell_shift_is_exact_for_a_single_cell():
     """One path-integration step splits a single cell bilinearly (sub-cell shift, mass kept)."""
     pc = PoseCells(CFG, start_cell=(10, 10, 0))
-    pc.path_integrate(0.1 * CFG.cell_size_m, 0.0)  # 0.1 cell east at heading 0
+    pc.path_integrate(0.1 * CFG.pose_cells.cell_size_m, 0.0)  # 0.1 cell east at heading 0
     a = pc.activity
     assert a[10, 10, 0] == pytest.approx(0.9)
     assert a[11, 10, 0] == pytest.approx(0.1)
     assert a.sum() == pytest.approx(1.0)
     pc = PoseCells(CFG, start_cell=(10, 10, 0))
-    pc.path_integrate(0.0, 0.25 * CFG.theta_cell_rad)
+    pc.path_integrate(0.0, 0.25 * CFG.pose_cells.theta_cell_rad)
     a = pc.activity
     assert a[10, 10, 0] == pytest.approx(0.75) and a[10, 10, 1] == pytest.approx(0.25)
 
@@ -147,14 +147,14 @@ def test_sub_cell_shift_is_exact_for_a_single_cell():
 def test_fast_motion_moves_several_cells_per_tick():
     pc = settled(cell=(30, 30, 9))  # heading 90 degrees
     y0 = pc.peak[1]
-    pc.step(3.3 * CFG.cell_size_m, 0.0)  # 3.3 cells in one tick
-    assert wrapped_diff(pc.peak[1], y0 + 3.3, CFG.ny) == pytest.approx(0.0, abs=0.05)
+    pc.step(3.3 * CFG.pose_cells.cell_size_m, 0.0)  # 3.3 cells in one tick
+    assert wrapped_diff(pc.peak[1], y0 + 3.3, CFG.pose_cells.ny) == pytest.approx(0.0, abs=0.05)
 
 
 @pytest.mark.parametrize("axis,sign", [(0, 1), (0, -1), (1, 1), (1, -1), (2, 1), (2, -1)])
 def test_wrap_around_at_every_face(axis, sign):
     """The network wraps on every axis: a packet crossing a face re-enters at the opposite one."""
-    n = [CFG.nx, CFG.ny, CFG.n_theta]
+    n = [CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta]
     cell = [30, 30, 0]
     if axis < 2:
         cell[axis] = n[axis] - 2 if sign > 0 else 1
@@ -173,9 +173,9 @@ def test_wrap_around_at_every_face(axis, sign):
         ref.step(v * DT, w * DT)
     moved = np.zeros(3)
     if axis < 2:
-        moved[axis] = sign * v * DT * steps / CFG.cell_size_m
+        moved[axis] = sign * v * DT * steps / CFG.pose_cells.cell_size_m
     else:
-        moved[2] = w * DT * steps / CFG.theta_cell_rad
+        moved[2] = w * DT * steps / CFG.pose_cells.theta_cell_rad
     expected = (start + moved) % GRID
     err = wrapped_diff(pc.peak, expected, GRID)
     assert np.abs(err).max() < 1.0, err
@@ -193,7 +193,9 @@ def test_windowed_network_equals_full_grid_reference():
     pc, ref = PoseCells(CFG), FullGridPoseCells(CFG)
     for k in range(400):
         if k % 37 == 5:
-            cells = rng.integers(0, [CFG.nx, CFG.ny, CFG.n_theta], size=(rng.integers(1, 6), 3))
+            cells = rng.integers(
+                0, [CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta], size=(rng.integers(1, 6), 3)
+            )
             e = rng.uniform(0.01, 0.3, len(cells))
             pc.inject(cells, e)
             ref.inject(cells, e)
@@ -204,7 +206,11 @@ def test_windowed_network_equals_full_grid_reference():
 
 
 def test_small_grid_wraps_whole_axes_and_matches_reference():
-    cfg = RatSLAMConfig(nx=8, ny=9, n_theta=8, excite_radius=2, inhibit_radius=3, peak_radius=3)
+    cfg = RatSLAMConfig(
+        pose_cells=PoseCellConfig(
+            nx=8, ny=9, n_theta=8, excite_radius_cells=2, inhibit_radius_cells=3, peak_radius_cells=3
+        )
+    )
     pc, ref = PoseCells(cfg), FullGridPoseCells(cfg)
     rng = np.random.default_rng(0)
     for k in range(100):
@@ -220,10 +226,10 @@ def test_small_grid_wraps_whole_axes_and_matches_reference():
 def test_peak_is_circular_weighted_mean_across_the_wrap():
     """The peak refines the strongest cell by a wrap-aware weighted mean of its neighbourhood."""
     pc = PoseCells(CFG, start_cell=(0, 10, 0))
-    pc.inject([[CFG.nx - 1, 10, 0]], 1.0)  # equal mass at x'=59 and x'=0
+    pc.inject([[CFG.pose_cells.nx - 1, 10, 0]], 1.0)  # equal mass at x'=59 and x'=0
     pc._update_peak()
     x = pc.peak[0]
-    assert min(abs(x - (CFG.nx - 0.5)), abs(x + 0.5)) < 1e-9  # half-way, across the face
+    assert min(abs(x - (CFG.pose_cells.nx - 0.5)), abs(x + 0.5)) < 1e-9  # half-way, across the face
 
 
 def test_single_weak_injection_does_not_move_the_peak():
@@ -233,7 +239,7 @@ def test_single_weak_injection_does_not_move_the_peak():
     before = pc.peak
     cells, vals = pc.active_cells()
     shifted = cells + np.array([20, -15, 12])
-    pc.inject(shifted, CFG.view_inject * vals)  # a whole familiar-view association, one tick
+    pc.inject(shifted, CFG.local_view.inject * vals)  # a whole familiar-view association, one tick
     for _ in range(60):
         pc.step(0.0, 0.0)
         assert np.abs(wrapped_diff(pc.peak, before, GRID)).max() < 0.5

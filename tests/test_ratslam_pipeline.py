@@ -10,7 +10,7 @@ from ratslam import RatSLAM, RatSLAMConfig
 
 CFG = RatSLAMConfig()
 DT = 1.0 / 7.0
-GRID = np.array([CFG.nx, CFG.ny, CFG.n_theta], dtype=float)
+GRID = np.array([CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta], dtype=float)
 
 
 def wrapped_diff(a, b, n=GRID):
@@ -75,7 +75,7 @@ def test_read_access_api_shapes():
     assert np.all(slam.link_dt > 0)
     assert isinstance(slam.snapped, bool)
     assert len(slam.pose) == 3
-    assert dataclasses.asdict(slam.config)["nx"] == 60
+    assert dataclasses.asdict(slam.config)["pose_cells"]["nx"] == 60
 
 
 def test_only_blank_scenes_give_no_experiences_and_pure_odometry():
@@ -153,7 +153,7 @@ def test_snapped_is_the_snap_metric_across_the_wrap():
     crossing a snap)."""
     from harness.metrics import snap_mask
 
-    cfg = RatSLAMConfig(nx=24, ny=24)
+    cfg = RatSLAMConfig().replace(pose_cells={"nx": 24, "ny": 24})
     slam = RatSLAM(cfg)
     step = slam.step
     peaks, snapped = [slam.peak], []
@@ -170,15 +170,15 @@ def test_snapped_is_the_snap_metric_across_the_wrap():
     p = np.array(peaks)
     crossings = (np.abs(np.diff(p, axis=0)) > np.array(cfg.shape) / 2).any(axis=1)
     assert sum(snapped) >= 1 and (crossings & ~np.array(snapped)).sum() >= 3
-    np.testing.assert_array_equal(snap_mask(p, cfg.shape, cfg.snap_cells)[1:], snapped)
+    np.testing.assert_array_equal(snap_mask(p, cfg.shape, cfg.pose_cells.snap_threshold_cells)[1:], snapped)
 
 
 @pytest.mark.parametrize("settle", [0, 50])
 def test_experience_map_waits_for_the_peak_to_settle_after_a_snap(settle):
     """A map that follows a flipping peak links far-apart places, so after a snap the map acts
-    on no view for ``snap_settle_ticks``; afterwards the relocalised peak re-enters the
+    on no view for ``experience_map.snap_settle_ticks``; afterwards the relocalised peak re-enters the
     corridor's experiences (a loop closure, not new experiences)."""
-    slam = RatSLAM(RatSLAMConfig(snap_settle_ticks=settle))
+    slam = RatSLAM(CFG.replace(experience_map={"snap_settle_ticks": settle}))
     learn_corridor_then_move_away(slam)
     n_corridor = len(slam.experience_views)
     first_snap, acted = None, []
@@ -216,7 +216,12 @@ def test_save_load_round_trip_is_exact(tmp_path, fusion):
     cfg = RatSLAMConfig()
     if fusion:  # the re-entry fusion's covariance is state too
         cfg = cfg.replace(
-            reentry_position_sigma_m=0.3, reentry_heading_sigma_deg=3.0, odom_speed_noise=0.02, odom_heading_noise=0.02
+            reentry={
+                "position_sigma_m": 0.3,
+                "heading_sigma_deg": 3.0,
+                "odom_speed_noise_m_s": 0.02,
+                "odom_heading_noise_rad_s": 0.02,
+            }
         )
     a = run(RatSLAM(cfg), stream, 0, 700)
     path = tmp_path / "state.npz"
@@ -249,7 +254,7 @@ def test_one_tick_view_never_switches_experiences_by_default():
     """A one-tick scene (false positive) does not reach the experience map (view_confirm_ticks=2);
     with view_confirm_ticks=1 (the paper's behaviour) it does."""
     for confirm, expected in ((2, 1), (1, 2)):
-        slam = RatSLAM(CFG.replace(view_confirm_ticks=confirm))
+        slam = RatSLAM(CFG.replace(experience_map={"view_confirm_ticks": confirm}))
         for s in [7, 7, 7, 9, 7, 7]:
             slam.step(DT, 0.0, 0.0, s)
         assert len(slam.experience_poses) == expected
@@ -273,18 +278,22 @@ def test_determinism_bit_identical():
 @pytest.mark.parametrize(
     "field,value",
     [
-        ("nx", 2),
-        ("energy", "max"),
-        ("correction", "x"),
-        ("alpha_d", 1.5),
-        ("global_inhibition", -1.0),
-        ("view_min_age_ticks", 0),
-        ("r_inf", 0.0),
-        ("snap_settle_ticks", -1),
-        ("offset_transitions", 1),
+        ("pose_cells.nx", 2),
+        ("pose_cells.nx", True),
+        ("pose_cells.trans_gain", True),
+        ("experience_map.energy", "max"),
+        ("experience_map.correction", "x"),
+        ("experience_map.alpha_d", 1.5),
+        ("pose_cells.global_inhibition", -1.0),
+        ("local_view.min_age_ticks", 0),
+        ("experience_map.r_inf_cells", 0.0),
+        ("experience_map.snap_settle_ticks", -1),
+        ("experience_map.offset_transitions", 1),
+        ("reentry.odom_speed_noise_m_s", -1.0),
     ],
 )
 def test_bad_config_raises_one_line_value_error(field, value):
-    with pytest.raises(ValueError, match=field) as err:
-        RatSLAMConfig(**{field: value})
-    assert "\n" not in str(err.value)
+    section, name = field.split(".")
+    with pytest.raises(ValueError) as err:
+        CFG.replace(**{section: {name: value}})
+    assert str(err.value).startswith(field + ": must be ") and "\n" not in str(err.value)

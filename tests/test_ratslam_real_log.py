@@ -32,7 +32,7 @@ def test_derived_experience_map_beats_plaza1_odometry(seed):
     """Measured experience map / online / odometry: 1.30/1.42, 1.33/1.45, 1.39/1.52 vs 1.47 m."""
     log = load_plaza("plaza1", seed=seed)
     cfg, _, _ = derive_configs(log)
-    assert cfg.reentry_position_sigma_m > 0
+    assert cfg.reentry.position_sigma_m > 0
     mapped, online, odometry = _run(log, cfg)
     assert mapped < 0.97 * odometry
     assert online < 1.1 * odometry
@@ -42,7 +42,7 @@ def test_plaza1_without_the_fusion_is_worse_than_odometry():
     """The same run with the fusion off (the paper's re-entries): map 1.77 m, online 2.44 m."""
     log = load_plaza("plaza1", seed=2)
     cfg, _, _ = derive_configs(log)
-    mapped, online, odometry = _run(log, cfg.replace(reentry_position_sigma_m=0.0, reentry_heading_sigma_deg=0.0))
+    mapped, online, odometry = _run(log, cfg.replace(reentry={"position_sigma_m": 0.0, "heading_sigma_deg": 0.0}))
     assert mapped > odometry and online > odometry
 
 
@@ -51,6 +51,6 @@ def test_derived_experience_map_beats_plaza2_odometry_clearly(seed):
     """Measured experience map / online: 1.60/2.98, 1.87/2.75, 1.41/2.25 m vs 15.9 m."""
     log = load_plaza("plaza2", seed=seed)
     cfg, _, _ = derive_configs(log)
-    assert cfg.cell_size_m > 0.4  # at most 0.75 cells per tick
+    assert cfg.pose_cells.cell_size_m > 0.4  # at most 0.75 cells per tick
     mapped, online, odometry = _run(log, cfg)
     assert mapped < odometry / 5 and online < odometry / 3

@@ -62,10 +62,12 @@ def simulate(bias_deg_s: float, fp_rate: float):
 
 
 @functools.cache
-def run(bias_deg_s: float, fp_rate: float, **config):
-    """Run RatSLAM over a simulated log; returns (slam, log, per-tick peaks (cells), snap count)."""
+def run(bias_deg_s: float, fp_rate: float, path_integration_bias_deg_s: float = 0.0, **experience_map):
+    """Run RatSLAM over a simulated log (``experience_map``: changes to that sub-config); returns
+    (slam, log, per-tick peaks (cells), snap count)."""
     log = simulate(bias_deg_s, fp_rate)
-    slam = RatSLAM(RatSLAMConfig(**config))
+    pose_cells = {"path_integration_bias_deg_s": path_integration_bias_deg_s}
+    slam = RatSLAM(RatSLAMConfig().replace(pose_cells=pose_cells, experience_map=experience_map))
     peaks = np.empty((len(log), 3))
     snaps = 0
     for k in range(len(log)):
@@ -78,7 +80,7 @@ def run(bias_deg_s: float, fp_rate: float, **config):
 def heading_drift_deg(slam: RatSLAM, log, peaks: np.ndarray) -> float:
     """Spread (max - min, degrees) of the pose-cell heading minus the true heading: 0 for a
     pose-cell path that is only rotated, large when path integration bends it."""
-    th = peaks[:, 2] * slam.config.theta_cell_rad
+    th = peaks[:, 2] * slam.config.pose_cells.theta_cell_rad
     err = np.unwrap(th - log.gt_theta)
     return float(np.degrees(err.max() - err.min()))
 
@@ -89,7 +91,7 @@ def test_fig8_path_integration_bias_experience_map_stays_true(fp_rate):
     """Paper Figs 8-10 (reading (a)): a 3 deg/s bias in the pose cells' path integration bends
     the pose-cell path, which snaps back on familiar views, while the experience map stays
     consistent (ATE <= 0.3 m), also with default aliasing and 1% per-tick false positives."""
-    slam, log, peaks, snaps = run(0.0, fp_rate, pi_bias_deg_s=3.0)
+    slam, log, peaks, snaps = run(0.0, fp_rate, path_integration_bias_deg_s=3.0)
     err = experience_ate(slam, log)
     # measured (seed 0): ATE 0.154 m / 0.144 m (fp 0 / 0.01), seeds 1-2 <= 0.18 m; 48 / 28 snaps;
     # pose-cell heading error spread 178 / 264 degrees
@@ -130,7 +132,7 @@ def test_sum_energy_without_view_confirmation_collapses_under_false_positives():
     tick) 1% per-tick false positives collapse the map (measured 2.20 m ATE under the 3 deg/s
     path-integration bias); the default (product energy, views confirmed on a second tick)
     holds it (0.144 m). Product energy alone is not enough here (measured 1.20 m)."""
-    naive, log, _, _ = run(0.0, 0.01, pi_bias_deg_s=3.0, energy="sum", view_confirm_ticks=1)
-    default, _, _, _ = run(0.0, 0.01, pi_bias_deg_s=3.0)
+    naive, log, _, _ = run(0.0, 0.01, path_integration_bias_deg_s=3.0, energy="sum", view_confirm_ticks=1)
+    default, _, _, _ = run(0.0, 0.01, path_integration_bias_deg_s=3.0)
     assert experience_ate(naive, log) > 1.0
     assert experience_ate(default, log) < 0.3

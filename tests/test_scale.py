@@ -58,20 +58,22 @@ def test_a_faster_vehicle_gets_scaled_fields():
     assert m.step == pytest.approx(4 * 0.3 / 7, rel=0.02)
     assert m.label_length == pytest.approx(2.0, rel=0.1)
     rs, pg, _ = derive_configs(log)
-    assert rs.cell_size_m == 0.25 and rs.pc_trans_gain == pytest.approx(trans_gain(4 * 0.3 / 7 / 0.25))
-    assert 1.0 <= rs.pc_trans_gain < 1.05
-    assert pg.keyframe_distance == pytest.approx(1.0)
-    assert pg.closure_sigma_xy == pytest.approx(2.0 / np.sqrt(6.0))
-    assert pg.odom_sigma_v == 0.01 and pg.odom_sigma_w == 0.01
+    assert rs.pose_cells.cell_size_m == 0.25 and rs.pose_cells.trans_gain == pytest.approx(
+        trans_gain(4 * 0.3 / 7 / 0.25)
+    )
+    assert 1.0 <= rs.pose_cells.trans_gain < 1.05
+    assert pg.keyframes.distance_m == pytest.approx(1.0)
+    assert pg.closures.sigma_xy_m == pytest.approx(2.0 / np.sqrt(6.0))
+    assert pg.odometry.sigma_v_m_s == 0.01 and pg.odometry.sigma_w_rad_s == 0.01
     # untouched fields keep their defaults
-    assert rs.replace(pc_trans_gain=1.05) == RatSLAMConfig()
+    assert rs.replace(pose_cells={"trans_gain": 1.05}) == RatSLAMConfig()
 
 
 def test_packet_speed_is_capped_by_larger_cells():
     rs, _, _ = derive_configs(_drive(16 * 0.3 / 7, 10.0, 4.0))  # 0.69 m per tick
-    assert rs.cell_size_m == pytest.approx(16 * 0.3 / 7 / 0.75)
-    assert rs.pc_trans_gain == 1.0
-    assert rs.reentry_position_sigma_m == 0.0  # reference odometry noise: fusion off
+    assert rs.pose_cells.cell_size_m == pytest.approx(16 * 0.3 / 7 / 0.75)
+    assert rs.pose_cells.trans_gain == 1.0
+    assert rs.reentry.position_sigma_m == 0.0  # reference odometry noise: fusion off
 
 
 def test_ground_truth_never_enters_the_derivation():
@@ -135,12 +137,15 @@ def test_revisits_replace_a_roughness_reading_that_they_reject():
     assert r.k_w <= 0.5  # the revisits: no heading drift
     assert r.support_v[0] >= 4.0  # and more than 0.04 m/s along track
     rs, pg, text = derive_configs(log)
-    assert pg.odom_sigma_w <= 0.005 and pg.odom_sigma_v >= 0.04
+    assert pg.odometry.sigma_w_rad_s <= 0.005 and pg.odometry.sigma_v_m_s >= 0.04
     assert "Revisits" in text
     # RatSLAM's re-entry fusion takes the same noise model
-    assert rs.reentry_position_sigma_m == pg.closure_sigma_xy
-    assert rs.reentry_heading_sigma_deg == pytest.approx(10.0 / np.sqrt(12.0))
-    assert (rs.odom_speed_noise, rs.odom_heading_noise) == (pg.odom_sigma_v, pg.odom_sigma_w)
+    assert rs.reentry.position_sigma_m == pg.closures.sigma_xy_m
+    assert rs.reentry.heading_sigma_deg == pytest.approx(10.0 / np.sqrt(12.0))
+    assert (rs.reentry.odom_speed_noise_m_s, rs.reentry.odom_heading_noise_rad_s) == (
+        pg.odometry.sigma_v_m_s,
+        pg.odometry.sigma_w_rad_s,
+    )
     assert "re-entry fusion" in text
 
 
@@ -152,4 +157,4 @@ def test_revisits_keep_a_roughness_reading_within_their_support():
     r = revisit_noise(log, min_travel=8.0, closure_sigma=2.0 / np.sqrt(6.0), margin=2.0)
     assert r.support_w[0] <= k_w <= r.support_w[1]
     _, pg, _ = derive_configs(log)
-    assert pg.odom_sigma_w == pytest.approx(0.01 * k_w)
+    assert pg.odometry.sigma_w_rad_s == pytest.approx(0.01 * k_w)

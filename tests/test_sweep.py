@@ -12,7 +12,7 @@ import pytest
 
 from harness.cli import main
 from harness.sweep_report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
-from harness.sweep_run import run_sweep
+from harness.sweep_run import run_sweep, run_tasks
 from harness.sweep_spec import SweepSpecError, read_sweep_spec
 from harness.sweep_task import run_one
 
@@ -36,7 +36,7 @@ system = "gtsam"
 
 [systems.gtsam_gaussian]
 system = "gtsam"
-backend = "gaussian"
+backend.kind = "gaussian"
 """
 
 
@@ -61,10 +61,29 @@ def _rows_without_wall_time(path: Path) -> list[dict]:
             "[axes] fp_rate: value 1.5 out of range",
         ),
         (
-            lambda s: s.replace('backend = "gaussian"', 'backend = "gaussian"\nbakend = 1'),
-            "[systems.gtsam_gaussian] bakend: unknown key",
+            lambda s: s.replace('backend.kind = "gaussian"', 'backend.kind = "gaussian"\nbakend = 1'),
+            "[systems.gtsam_gaussian] bakend: unknown key (not a field of PoseGraphConfig)",
         ),
-        (lambda s: s.replace('backend = "gaussian"', 'backend = "lasso"'), "[systems.gtsam_gaussian]"),
+        (
+            lambda s: s.replace('backend.kind = "gaussian"', 'backend.kindd = "gaussian"'),
+            "[systems.gtsam_gaussian.backend] kindd: unknown key (not a field of BackendConfig)",
+        ),
+        (
+            lambda s: s.replace('backend.kind = "gaussian"', '"backend.kind" = "gaussian"'),
+            "[systems.gtsam_gaussian] backend.kind: unknown key (not a field of PoseGraphConfig); a quoted dotted key?",
+        ),
+        (
+            lambda s: s.replace('backend.kind = "gaussian"', 'backend = "gaussian"'),
+            "[systems.gtsam_gaussian] backend: expected a table [systems.gtsam_gaussian.backend], got 'gaussian'",
+        ),
+        (
+            lambda s: s.replace('backend.kind = "gaussian"', 'backend.kind = "lasso"'),
+            "[systems.gtsam_gaussian.backend] kind: must be one of 'gaussian', 'robust', 'gnc', got 'lasso'",
+        ),
+        (
+            lambda s: s.replace('system = "ratslam"', 'system = "ratslam"\npose_cells.nx = 2'),
+            "[systems.ratslam.pose_cells] nx: must be an integer >= 4, got 2",
+        ),
         (lambda s: s.replace('system = "ratslam"', 'system = "orbslam"'), "[systems.ratslam] system"),
         (lambda s: s.replace("count = 2", "count = 0"), "[seeds] count"),
         (lambda s: s.replace('world = "small_loop"', 'world = "moon_base"'), "[base] world"),
@@ -77,6 +96,40 @@ def test_spec_errors_are_one_line_naming_file_and_key(tmp_path, edit, message):
         read_sweep_spec(path)
     text = str(e.value)
     assert "\n" not in text and str(path) in text and message in text
+
+
+def test_systems_take_nested_config_fields(tmp_path):
+    """A system's sub-config fields are TOML dotted keys or sub-tables, as in a config file; with
+    a figure as the base, RatSLAM takes the figure's grid unless it sets its own fields there."""
+    text = """
+[base]
+figure = "fig4"
+duration = 30.0
+[axes]
+pi_bias = [1.5]
+[systems.ratslam]
+system = "ratslam"
+[systems.ratslam_sum]
+system = "ratslam"
+pose_cells.nx = 48
+experience_map.energy = "sum"
+[systems.gtsam_bias]
+system = "gtsam"
+closures.max_candidates = 2
+[systems.gtsam_bias.yaw_bias]
+estimate = true
+"""
+    spec = read_sweep_spec(_spec(tmp_path, text))
+    systems = {s.name: s.config for s in spec.systems}
+    assert systems["ratslam"].pose_cells.shape == (40, 40, 36)  # the figure's grid
+    assert systems["ratslam_sum"].pose_cells.shape == (48, 40, 36)
+    assert systems["ratslam_sum"].experience_map.energy == "sum"
+    assert systems["gtsam_bias"].yaw_bias.estimate and systems["gtsam_bias"].closures.max_candidates == 2
+    task = run_tasks(spec, "code")[0]
+    configs = {s["name"]: s["config"] for s in task["systems"]}  # nested, as dataclasses.asdict
+    assert configs["ratslam_sum"]["pose_cells"]["path_integration_bias_deg_s"] == 1.5
+    assert configs["ratslam_sum"]["experience_map"]["energy"] == "sum"
+    assert configs["gtsam_bias"]["yaw_bias"]["estimate"] is True
 
 
 def test_spec_expands_one_axis_at_a_time_or_as_a_grid(tmp_path):
