@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from ratslam import RatSLAMConfig, ReentryFusionConfig
+from ratslam import ReentryFusionConfig
 from ratslam.experience_map import ExperienceMap, wrap_angle
-
-CFG = RatSLAMConfig()
+from tests.helpers import CFG
 
 
 def make_map(cfg=CFG, poses=(), links=(), cells=None):

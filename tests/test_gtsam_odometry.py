@@ -7,8 +7,7 @@ from gtsam.symbol_shorthand import B, X
 
 from baselines.factors import BiasedOdometry, biased_odometry_factor
 from baselines.odometry import TickBuffer, integrate, relative_covariance
-
-DT = 1.0 / 7.0
+from tests.helpers import DT
 
 
 def _ticks(n=12, seed=0):

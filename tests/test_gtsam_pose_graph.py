@@ -7,8 +7,7 @@ import pytest
 
 from baselines import BackendConfig, KeyframeConfig, OptimisationConfig, PoseGraphConfig, PoseGraphSLAM
 from baselines.closures import SceneIndex
-
-DT = 1.0 / 7.0
+from tests.helpers import DT
 
 
 def square_stream(laps=2, side=4.0, speed=0.3, cell=1.0, seed=0, fp_ticks=()):

@@ -3,25 +3,9 @@
 import numpy as np
 import pytest
 
-from ratslam import RatSLAM, RatSLAMConfig
+from ratslam import RatSLAM
 from ratslam.local_view import FATIGUE_CAP, LocalView
-from ratslam.pose_cells import PoseCells
-
-CFG = RatSLAMConfig()
-DT = 1.0 / 7.0
-GRID = np.array([CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta], dtype=float)
-
-
-def wrapped_diff(a, b, n=GRID):
-    d = (np.asarray(a, float) - np.asarray(b, float)) % n
-    return np.where(d > np.asarray(n) / 2, d - n, d)
-
-
-def settled(cell=(30, 30, 0)):
-    pc = PoseCells(CFG, start_cell=cell)
-    for _ in range(30):
-        pc.step(0.0, 0.0)
-    return pc
+from tests.helpers import CFG, DT, GRID, settled, wrapped_diff
 
 
 def test_scene_minus_one_is_not_a_view():
@@ -44,7 +28,7 @@ def test_one_view_cell_per_scene_number():
 
 def test_hebbian_association_follows_the_active_pose_cells():
     """β <- max(β, λ V P) over the active cells (above the learning threshold)."""
-    lv, pc = LocalView(CFG), settled((12, 40, 7))
+    lv, pc = LocalView(CFG), settled(cell=(12, 40, 7))
     lv.inject(5, 0, pc)
     lv.learn(0, pc)
     cells, w, ticks = lv.associations(0)

@@ -9,25 +9,7 @@ from ratslam import PoseCellConfig, RatSLAMConfig
 from ratslam.pose_cell_kernels import cover_arc
 from ratslam.pose_cells import PoseCells, _arc_union, gaussian_kernel
 from ratslam.pose_cells_reference import FullGridPoseCells
-
-CFG = RatSLAMConfig()
-DT = 1.0 / 7.0
-
-
-def wrapped_diff(a, b, n):
-    """Signed wrap-aware difference a - b on rings of sizes n."""
-    d = (np.asarray(a, float) - np.asarray(b, float)) % n
-    return np.where(d > np.asarray(n) / 2, d - n, d)
-
-
-GRID = np.array([CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta], dtype=float)
-
-
-def settled(cfg=CFG, cell=None, ticks=30):
-    pc = PoseCells(cfg, start_cell=cell)
-    for _ in range(ticks):
-        pc.step(0.0, 0.0)
-    return pc
+from tests.helpers import CFG, DT, GRID, settled, wrapped_diff
 
 
 def test_gaussian_kernel_is_normalised_and_symmetric():

@@ -7,15 +7,7 @@ import numpy as np
 import pytest
 
 from ratslam import RatSLAM, RatSLAMConfig
-
-CFG = RatSLAMConfig()
-DT = 1.0 / 7.0
-GRID = np.array([CFG.pose_cells.nx, CFG.pose_cells.ny, CFG.pose_cells.n_theta], dtype=float)
-
-
-def wrapped_diff(a, b, n=GRID):
-    d = (np.asarray(a, float) - np.asarray(b, float)) % n
-    return np.where(d > np.asarray(n) / 2, d - n, d)
+from tests.helpers import CFG, DT, GRID, wrapped_diff
 
 
 def synthetic_stream(n=1500, seed=0):
