@@ -2,8 +2,9 @@
 
 One physics step per tick (7 Hz by default). The controller's command reaches the body through
 ``velocity_func`` so that the contact solver still acts on it and the robot never passes through
-a wall. Wheel odometry is the body's true motion over each tick (plus the world's bias and
-noise); scene numbers come from the scene model. Ground truth is kept alongside for metrics.
+a wall. Wheel odometry is the body's true motion over each tick with the world's systematic
+errors, bias and noise (:mod:`worlds.odometry_model`); scene numbers come from the scene model.
+Ground truth is kept alongside for metrics.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import pymunk
 
 from .geometry import wrap_angle
 from .observation_log import ObservationLog
+from .odometry_model import measured_odometry
 from .route import RouteFollower
 from .scenes import SceneLayout, observe_scenes
 from .world import World, load_world
@@ -114,12 +116,12 @@ def simulate(
     sim = Simulator(world, seed)
     poses = sim.run(n, progress)
 
-    # Noise and scenes are drawn from their own streams so the route does not depend on them.
-    noise_rng, scene_rng = (np.random.default_rng([seed, k]) for k in (1, 2))
-    v_trans, v_rot = odometry_from_poses(poses, dt)
-    odo = world.odometry
-    v_trans = v_trans + noise_rng.normal(0.0, odo.noise_trans, n)
-    v_rot = v_rot + math.radians(bias) + noise_rng.normal(0.0, odo.noise_rot, n)
+    # Noise, slip and scenes are drawn from their own streams so the route does not depend on them.
+    noise_rng, scene_rng, slip_rng = (np.random.default_rng([seed, k]) for k in (1, 2, 3))
+    v_true, w_true = odometry_from_poses(poses, dt)
+    v_trans, v_rot = measured_odometry(
+        v_true, w_true, world.odometry, dt, 2.0 * world.robot.radius, noise_rng, slip_rng, bias_deg_s=bias
+    )
 
     gt = poses[1:]
     s = world.scenes

@@ -40,11 +40,17 @@ class RobotSpec:
 
 @dataclass(frozen=True)
 class OdometrySpec:
-    """Wheel odometry model: true body velocities plus constant yaw bias plus white noise."""
+    """Wheel odometry model: true body velocities with systematic errors (scale, turn, slip),
+    a constant yaw bias and white noise (see :mod:`worlds.odometry_model`)."""
 
     bias_deg_s: float = 0.0  # constant added to v_rot (Figs 8-10 use 1.5 / 3.0 / 6.0)
     noise_trans: float = 0.01  # m/s, std of Gaussian noise on v_trans per tick
     noise_rot: float = 0.01  # rad/s, std of Gaussian noise on v_rot per tick
+    scale_error: float = 0.0  # fraction: distances reported 1 + scale_error times too long
+    turn_scale_error: float = 0.0  # fraction: turns reported 1 + turn_scale_error times too large
+    slip_rate: float = 0.0  # slip episodes per second
+    slip_duration: float = 1.0  # s per slip episode
+    slip_fraction: float = 0.2  # the slipping wheel's over-report, as a fraction of the speed
 
 
 @dataclass(frozen=True)
@@ -270,6 +276,11 @@ def _parse(path, raw: dict) -> World:
         bias_deg_s=odo_t.number("bias_deg_s", 0.0),
         noise_trans=odo_t.number("noise_trans", OdometrySpec.noise_trans, minimum=0.0),
         noise_rot=odo_t.number("noise_rot", OdometrySpec.noise_rot, minimum=0.0),
+        scale_error=odo_t.number("scale_error", OdometrySpec.scale_error, minimum=-0.5, maximum=0.5),
+        turn_scale_error=odo_t.number("turn_scale_error", OdometrySpec.turn_scale_error, minimum=-0.5, maximum=0.5),
+        slip_rate=odo_t.number("slip_rate", OdometrySpec.slip_rate, minimum=0.0),
+        slip_duration=odo_t.number("slip_duration", OdometrySpec.slip_duration, positive=True),
+        slip_fraction=odo_t.number("slip_fraction", OdometrySpec.slip_fraction, minimum=0.0, maximum=1.0),
     )
     scenes = _parse_scenes(top)
 
