@@ -19,12 +19,13 @@ from pathlib import Path
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
+from worlds.errors import InputError
 from worlds.observation_log import atomic_write_text, read_text
 
 TABLES = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 
 
-class ConfigFileError(ValueError):
+class ConfigFileError(InputError):
     """A malformed configuration file. The message is one line: file, table, key, problem."""
 
 

@@ -20,12 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
+from worlds.errors import InputError
 from worlds.observation_log import atomic_write_text
 
 PACKAGES = ("ratslam-harness", "numpy", "scipy", "gtsam", "rerun-sdk", "pymunk", "matplotlib")
 
 
-class OutputError(Exception):
+class OutputError(InputError):
     """The output location cannot be used (one line: path and problem)."""
 
 

@@ -42,6 +42,7 @@ from pathlib import Path
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
 from worlds import load_world
+from worlds.errors import InputError
 
 from .config_file import _field_types, _typed, read_toml
 
@@ -73,7 +74,7 @@ AXES = {
 }
 
 
-class SweepSpecError(ValueError):
+class SweepSpecError(InputError):
     """A malformed sweep spec. The message is one line: file, key, problem."""
 
 

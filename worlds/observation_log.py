@@ -17,12 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
+
 REQUIRED_COLUMNS = ("t", "dt", "v_trans", "v_rot", "scene_id")
 GROUND_TRUTH_COLUMNS = ("gt_x", "gt_y", "gt_theta", "false_positive")
 _INT_COLUMNS = {"scene_id", "false_positive"}
 
 
-class ObservationLogError(ValueError):
+class ObservationLogError(InputError):
     """A malformed observation log. The message is one line: file, line/column, problem."""
 
 

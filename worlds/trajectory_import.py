@@ -23,13 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .geometry import wrap_angle
 from .observation_log import ObservationLog, read_text
 from .real_data import labelled_log
 from .world import SceneSpec
 
 
-class TrajectoryImportError(ValueError):
+class TrajectoryImportError(InputError):
     """A malformed trajectory or label file (one line: file, line, problem)."""
 
 
