@@ -115,7 +115,7 @@ def evaluate_claims(fig: Figure, run: RunResult) -> list[ClaimResult]:
 # --- claim helpers ---------------------------------------------------------------------------
 
 
-def measured(value: float | None, what: str) -> float:
+def measurable(value: float | None, what: str) -> float:
     """``value`` if the run measured it; :class:`NotMeasurable` if it is missing or NaN."""
     if value is None:
         raise NotMeasurable(f"no {what}")
@@ -148,7 +148,7 @@ def _ate(run: RunResult, variant: str, system: str) -> float:
     v = run.variant(variant)
     if v.ate is None:
         raise NotMeasurable("no ground truth")
-    return measured(v.ate.get(system), f"{system} ATE")
+    return measurable(v.ate.get(system), f"{system} ATE")
 
 
 def ate_at_most(variant: str, system: str, bound: float, statement: str, key: str) -> Claim:
@@ -192,7 +192,7 @@ def _only_orientation_differs(run: RunResult) -> tuple[str, bool]:
     v = run.variant("paper")
     if v.alignment_yaw_deg is None:
         raise NotMeasurable("no ground truth")
-    yaw = measured(v.alignment_yaw_deg.experience_map, "experience_map alignment")
+    yaw = measurable(v.alignment_yaw_deg.experience_map, "experience_map alignment")
     ate = _ate(run, "paper", "experience_map")
     return f"alignment yaw {yaw:.1f} deg, ATE {ate:.3f} m", ate <= 0.3
 
@@ -200,14 +200,14 @@ def _only_orientation_differs(run: RunResult) -> tuple[str, bool]:
 def _loop_length(run: RunResult) -> tuple[str, bool]:
     if run.world is None:
         raise NotMeasurable("not a simulated world")
-    lap = measured(run.world.lap_length_m, "lap length")
+    lap = measurable(run.world.lap_length_m, "lap length")
     return f"lap {lap:.2f} m", abs(lap - 18.0) <= 1.8
 
 
 def _room_lap_separation(run: RunResult, where: str) -> float:
     """Fig 11: the distance between the two laps' centres of room G/H (``where``: pose_cell or
     experience_map), from the figure's extra metrics."""
-    return measured(run.extras["rooms"][f"{where}_separation_m"], f"{where.replace('_', '-')} lap separation")
+    return measurable(run.extras["rooms"][f"{where}_separation_m"], f"{where.replace('_', '-')} lap separation")
 
 
 def _two_pose_cell_loops(run: RunResult) -> tuple[str, bool]:
@@ -221,7 +221,7 @@ def _laps_overlap_in_experience_map(run: RunResult) -> tuple[str, bool]:
 
 
 def _real_time(run: RunResult) -> tuple[str, bool]:
-    factor = measured(run.variant("default").timing.ratslam_realtime_factor, "RatSLAM real-time factor")
+    factor = measurable(run.variant("default").timing.ratslam_realtime_factor, "RatSLAM real-time factor")
     return f"x{factor:.0f} real time", factor >= 1.0
 
 
@@ -505,7 +505,7 @@ def closure_quality_at_least(variant: str, precision: float, recall: float, stat
         lc = run.variant(variant).loop_closure
         if lc is None:
             raise NotMeasurable("no loop-closure quality")
-        p, r = measured(lc.precision, "loop-closure precision"), measured(lc.recall, "loop-closure recall")
+        p, r = measurable(lc.precision, "loop-closure precision"), measurable(lc.recall, "loop-closure recall")
         return (
             f"precision {p:.3f} (need >= {precision}), recall {r:.3f} (need >= {recall})",
             p >= precision and r >= recall,

@@ -6,6 +6,7 @@ The report is rendered from the run's typed result (:class:`harness.results.RunR
 
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,11 @@ def _load(run_dir: Path, run: RunResult | None) -> tuple[RunResult, dict[str, np
         run = RunResult.from_json(metrics_path)
     if run.primary.has_ground_truth and not (run_dir / "trajectories" / "ground_truth.tum").exists():
         raise ReportError(f"{run_dir / 'trajectories' / 'ground_truth.tum'}: missing (not a complete run directory)")
-    return run, dict(np.load(maps_path))
+    try:
+        maps = dict(np.load(maps_path))
+    except (OSError, ValueError, zipfile.BadZipFile) as e:
+        raise ReportError(f"{maps_path}: cannot be read ({e})") from None
+    return run, maps
 
 
 def write_panels(run_dir: Path, run: RunResult, maps: dict[str, np.ndarray]) -> list[Path]:
