@@ -42,16 +42,26 @@ def _load(run_dir: Path, run: RunResult | None) -> tuple[RunResult, dict[str, np
     return run, maps
 
 
+def _poses(path: Path) -> np.ndarray:
+    """The (x, y, θ) poses of a run's TUM file; one line naming it if it cannot be read."""
+    try:
+        return read_tum(path)[1]
+    except OSError as e:
+        raise ReportError(f"{path}: cannot be read ({e.strerror})") from None
+    except ValueError as e:  # a malformed file: the message names it
+        raise ReportError(str(e)) from None
+
+
 def write_panels(run_dir: Path, run: RunResult, maps: dict[str, np.ndarray]) -> list[Path]:
     """The four PNG panels of the primary variant (none without ground truth)."""
     world = load_world(run.world.file) if run.world is not None and run.world.file else None
     traj = run_dir / "trajectories"
     if not (traj / "ground_truth.tum").exists():
         return []
-    gt = read_tum(traj / "ground_truth.tum")[1]
-    if gt is None or len(gt) < 2:
+    gt = _poses(traj / "ground_truth.tum")
+    if len(gt) < 2:
         return []
-    odo = read_tum(traj / "odometry.tum")[1]
+    odo = _poses(traj / "odometry.tum")
     fp_xy = gt[maps["false_positive"].astype(bool), :2] if "false_positive" in maps else np.zeros((0, 2))
     exp_ticks = maps["experience_first_tick"].astype(int)
     out = [
