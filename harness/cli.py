@@ -1,4 +1,8 @@
-"""``ratslam-harness``: the command-line entry point (thin layer over the library)."""
+"""``ratslam-harness``: the command-line entry point (thin layer over the library).
+
+Every user-facing error derives from :class:`worlds.errors.InputError` and is printed as one
+line on stderr with exit status 2; any other exception is a bug and keeps its traceback.
+"""
 
 from __future__ import annotations
 
@@ -9,14 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
-from worlds import ObservationLogError, WorldFileError, list_worlds, load_world, simulate
-from worlds.plot import plot_run
+from worlds import InputError, list_worlds, load_world
 
-from .progress import Progress
+from .log_output import check_writable
 
 
-class CliError(Exception):
-    """A user-facing error: printed as one line on stderr, exit status 2."""
+class CliError(InputError):
+    """A command-line usage error: printed as one line on stderr, exit status 2 (as every
+    :class:`~worlds.errors.InputError` is)."""
 
 
 def _cmd_list(args) -> None:
@@ -34,25 +38,19 @@ def _cmd_list(args) -> None:
 
 
 def _cmd_simulate(args) -> None:
-    world = load_world(args.world)
-    out = Path(args.out)
-    _check_writable(out)
-    png = Path(args.png) if args.png else out.with_suffix(".png")
-    duration = world.duration if args.duration is None else args.duration
-    progress = Progress(
-        int(round(duration * world.tick_rate)), f"simulate {world.name}", world.dt, enabled=not args.quiet
+    from .log_output import simulate_to_files
+
+    sim = simulate_to_files(
+        args.world,
+        args.out,
+        png=args.png,
+        duration=args.duration,
+        seed=args.seed,
+        bias_deg_s=args.bias,
+        fp_rate=args.fp,
+        show_progress=not args.quiet,
     )
-    log = simulate(world, duration=duration, seed=args.seed, bias_deg_s=args.bias, fp_rate=args.fp, progress=progress)
-    log.write_csv(out)
-    fps = log.ground_truth()[log.false_positive, :2]
-    plot_run(
-        world,
-        log.ground_truth()[:, :2],
-        png,
-        title=f"{world.name}: {len(log)} ticks, seed {args.seed}",
-        false_positive_xy=fps,
-    )
-    print(f"wrote {out} ({len(log)} ticks, {log.t[-1]:.0f} s simulated) and {png}")
+    print(f"wrote {sim.csv} ({len(sim.log)} ticks, {sim.log.t[-1]:.0f} s simulated) and {sim.png}")
 
 
 def _cmd_run(args) -> None:
@@ -95,8 +93,7 @@ def _cmd_replay(args) -> None:
 def _cmd_import_plaza(args) -> None:
     from worlds.real_data import load_plaza
 
-    out = Path(args.out)
-    _check_writable(out)
+    out = check_writable(args.out)
     log = load_plaza(args.name, seed=args.seed, fp_rate=args.fp, duration=args.duration)
     log.write_csv(out)
     speed = float(np.median(np.abs(log.v_trans)))
@@ -111,8 +108,7 @@ def _cmd_import_tum(args) -> None:
     from worlds.real_data import PLAZA_SCENES
     from worlds.trajectory_import import import_tum
 
-    out = Path(args.out)
-    _check_writable(out)
+    out = check_writable(args.out)
     log = import_tum(
         args.odometry,
         ground_truth=args.gt,
@@ -136,8 +132,7 @@ def _cmd_import_rosbag(args) -> None:
     from worlds.bag_import import import_bag
     from worlds.real_data import PLAZA_SCENES
 
-    out = Path(args.out)
-    _check_writable(out)
+    out = check_writable(args.out)
     log = import_bag(
         args.bag,
         args.odom,
@@ -186,28 +181,16 @@ def _cmd_sweep(args) -> None:
 
 
 def _print_run_summary(out: Path) -> None:
-    from worlds.files import read_json
+    from .results import RunResult
 
-    m = read_json(out / "metrics.json")
-    for c in m.get("claims", []):
-        print(f"  [{'held' if c['held'] else 'NOT held'}] {c['statement']} -- {c['measured']}")
+    run = RunResult.from_json(out / "metrics.json")
+    for c in run.claims or []:
+        print(f"  [{'held' if c.held else 'NOT held'}] {c.statement} -- {c.measured}")
     print(f"run directory: {out}")
     print(f"  report:    {out / 'report.md'}")
     rrd = out / "recording.rrd"
     if rrd.exists():
         print(f"  recording: {rrd}  (open it with: rerun {rrd})")
-
-
-def _check_writable(path: Path) -> None:
-    parent = path.parent if str(path.parent) else Path(".")
-    if parent.exists() and not parent.is_dir():
-        raise CliError(f"{path}: output directory {parent} is not a directory")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise CliError(f"{path}: cannot create output directory ({e.strerror})") from None
-    if path.is_dir():
-        raise CliError(f"{path}: is a directory, expected a file name")
 
 
 def _workers(text: str) -> int:
@@ -375,15 +358,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _harness_errors() -> tuple[type, ...]:
-    from .report import ReportError
-    from .run_dir import OutputError
-    from .sweep_report import SweepReportError
-    from .sweep_run import SchedulerError
-
-    return (ReportError, OutputError, SweepReportError, SchedulerError)
-
-
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
@@ -397,7 +371,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("ratslam-harness: interrupted; nothing was written", file=sys.stderr)
         return 130
-    except (CliError, WorldFileError, ObservationLogError, ValueError, *_harness_errors()) as e:
+    except InputError as e:  # every user-facing error; anything else is a bug and shows its traceback
         print(f"ratslam-harness: error: {e}", file=sys.stderr)
         return 2
     return 0

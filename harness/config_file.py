@@ -32,12 +32,13 @@ from typing import Any, NoReturn
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
 from ratslam.config_fields import ConfigError, replace, subconfigs
+from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_text
 
 TABLES: dict[str, type] = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 
 
-class ConfigFileError(ValueError):
+class ConfigFileError(InputError):
     """A malformed configuration file. The message is one line: file, table, key, problem."""
 
 

@@ -1,36 +1,49 @@
 """Run a paper figure (or replay a user's log) end to end into a run directory.
 
 simulate -> RatSLAM and GTSAM on the same observations -> recording, metrics, TUM files,
-maps.npz, report.md and PNG panels, all staged and moved into place when complete.
+maps.npz, report.md and PNG panels, all staged and moved into place when complete. A figure's
+variants and a replay take the same path through one stream (:func:`run_single_stream`) and
+write their run the same way (:func:`write_run`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import multiprocessing
 import os
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from baselines import PoseGraphConfig, YawBiasConfig
 from ratslam import PoseCellConfig, RatSLAMConfig
 from worlds import ObservationLog, World, load_world, simulate
-from worlds.files import atomic_open, write_json, write_tum
+from worlds.files import atomic_open, write_tum
 
 from .config_file import ConfigOverrides, write_config_toml
-from .evaluate import evaluate_stream, room_laps
-from .figures import Figure, Variant, get_figure
+from .evaluate import CLOSURE_TRUE_DISTANCE, evaluate_stream
+from .figures import ExtraMetrics, Figure, FigureError, Variant, evaluate_claims, get_figure
 from .progress import Progress
 from .report import write_report
+from .results import FigureInfo, RunResult, VariantConfig, VariantResult, WorldSource
 from .run_dir import provenance, staged_directory
 from .runner import StreamResult, dead_reckon, run_stream
 from .scale import derive_configs
 
+if TYPE_CHECKING:
+    from .recorder import StreamRecorder
+
+RecorderFactory = Callable[[Path, World | None, ObservationLog, RatSLAMConfig, np.ndarray], "StreamRecorder"]
+"""``(run directory, world or None, observation log, RatSLAM's configuration) -> StreamRecorder``
+(e.g. :func:`harness.recorder.recorder_factory`)."""
+
 REPORTS_DIR = Path("reports")
-ROOM_GH = (22.0, 7.5, 30.0, 13.0)  # full_floor's twice-lapped room (Fig 11, loops G and H)
 
 
 def lap_length(world: World, gt: np.ndarray) -> float | None:
@@ -59,7 +72,7 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
     write_tum(traj / "ratslam_experiences.tum", t[rs.experience_first_tick[order]], *rs.experience_poses[order].T)
     if len(pg.keyframe_ticks):
         write_tum(traj / "gtsam_keyframes.tum", t[pg.keyframe_ticks], *pg.keyframe_poses.T)
-    maps = {
+    maps: dict[str, Any] = {
         "grid_shape": np.array(rs.config.shape),
         "peak_cells": res.peak_cells,
         "snapped": res.snapped,
@@ -126,57 +139,102 @@ def _pool_context():
     return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
 
 
+def run_single_stream(
+    run_dir: Path,
+    log: ObservationLog,
+    ratslam_config: RatSLAMConfig,
+    gtsam_config: PoseGraphConfig,
+    *,
+    config_header: str,
+    progress: Progress,
+    world: World | None = None,
+    recorder_factory: RecorderFactory | None = None,
+    closure_true_distance: float = CLOSURE_TRUE_DISTANCE,
+    extra_metrics: ExtraMetrics | None = None,
+) -> VariantResult:
+    """One stream through both systems into ``run_dir``: its effective ``config.toml`` (headed by
+    ``config_header``), the recording (if a ``recorder_factory`` is given; removed if the run
+    fails), the TUM trajectories and maps.npz, and its metrics (with the ``extra_metrics`` of a
+    figure that has them; the caller adds the configuration record)."""
+    write_config_toml(run_dir / "config.toml", ratslam_config, gtsam_config, config_header)
+    odometry = dead_reckon(log)  # once: the runner and the recorder share it
+    recorder = recorder_factory(run_dir, world, log, ratslam_config, odometry) if recorder_factory else None
+    with recorder if recorder is not None else contextlib.nullcontext():
+        on_tick = recorder.on_tick if recorder is not None else None
+        res = run_stream(log, ratslam_config, gtsam_config, on_tick=on_tick, progress=progress, odometry=odometry)
+    write_stream_outputs(run_dir, log, res)
+    result = evaluate_stream(res, log, closure_true_distance=closure_true_distance)
+    if extra_metrics is not None:
+        result = dataclasses.replace(result, extras=extra_metrics(res, log, ratslam_config))
+    return result
+
+
+def write_run(run_dir: Path, run: RunResult) -> None:
+    """A run's ``metrics.json`` and its report (report.md and the PNG panels)."""
+    run.write(run_dir / "metrics.json")
+    write_report(run_dir, run)
+
+
+def _progress(log: ObservationLog, label: str, show: bool, redraw: bool | None = None) -> Progress:
+    return Progress(len(log), label, float(np.median(log.dt)), enabled=show, redraw=redraw)
+
+
+@dataclass(frozen=True)
+class VariantRun:
+    """What one variant's run hands back to its figure: its metrics, the mean lap of a lap
+    world's run (None otherwise) and the duration of its stream."""
+
+    result: VariantResult
+    lap_length_m: float | None
+    duration_s: float
+
+
 def _run_variant(
     run_dir: Path,
     fig: Figure,
     variant: Variant,
-    world: World,
-    duration: float,
+    world: World | None,
+    duration: float | None,
     seed: int,
     show_progress: bool,
-    recorder_factory=None,
+    recorder_factory: RecorderFactory | None = None,
     config: ConfigOverrides | None = None,
     redraw: bool | None = None,
-) -> dict:
+) -> VariantRun:
     world = _variant_world(world, variant)
     log = _variant_log(fig, variant, world, duration, seed)
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
-    write_config_toml(
-        run_dir / "config.toml",
+    result = run_single_stream(
+        run_dir,
+        log,
         rs_cfg,
         pg_cfg,
-        f"Effective configuration of {fig.name}, variant {variant.name} (seed {seed}).\n"
+        config_header=f"Effective configuration of {fig.name}, variant {variant.name} (seed {seed}).\n"
         + (f"{derivation}\n" if derivation else "")
         + "Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml",
+        progress=_progress(log, f"{fig.name}/{variant.name}", show_progress, redraw),
+        world=world,
+        recorder_factory=recorder_factory,
+        closure_true_distance=1.5 * _scene_cell_size(fig, world),
+        extra_metrics=fig.extra_metrics,
     )
-    progress = Progress(len(log), f"{fig.name}/{variant.name}", log.dt[0], enabled=show_progress, redraw=redraw)
-    odometry = dead_reckon(log)
-    recorder = recorder_factory(run_dir, world, log, rs_cfg, odometry) if recorder_factory else None
-    res = run_stream(
-        log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress, odometry=odometry
+    result = dataclasses.replace(
+        result,
+        config=VariantConfig(
+            ratslam=dataclasses.asdict(rs_cfg),
+            gtsam=dataclasses.asdict(pg_cfg),
+            odometric_bias_deg_s=variant.odometric_bias,
+            pi_bias_deg_s=variant.pi_bias,
+        ),
+        derived_scale=derivation or None,
     )
-    if recorder:
-        recorder.close()
-    write_stream_outputs(run_dir, log, res)
-    m = evaluate_stream(res, log, closure_true_distance=1.5 * _scene_cell_size(fig, world))
-    m["config"] = {
-        "ratslam": dataclasses.asdict(rs_cfg),
-        "gtsam": dataclasses.asdict(pg_cfg),
-        "odometric_bias_deg_s": variant.odometric_bias,
-        "pi_bias_deg_s": variant.pi_bias,
-    }
-    if derivation:
-        m["derived_scale"] = derivation
-    if fig.world == "full_floor":
-        m["rooms"] = room_laps(res, log, ROOM_GH, rs_cfg.pose_cells.cell_size_m, rs_cfg.shape)
-    m["_lap_length"] = lap_length(world, log.ground_truth()) if world is not None else None
-    m["_duration"] = log.duration
-    return m
+    lap = lap_length(world, log.ground_truth()) if world is not None else None
+    return VariantRun(result, lap, log.duration)
 
 
-def _variant_job(args) -> dict:
+def _variant_job(args) -> VariantRun:
     """One variant in a worker process (progress as plain lines: several bars would clash)."""
     run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config = args
     return _run_variant(
@@ -205,7 +263,7 @@ def run_figure(
     seed: int | None = None,
     duration: float | None = None,
     show_progress: bool = True,
-    recorder_factory=None,
+    recorder_factory: RecorderFactory | None = None,
     variants: tuple[str, ...] | None = None,
     workers: int | None = None,
     config: ConfigOverrides | None = None,
@@ -221,7 +279,7 @@ def run_figure(
     if variants is not None:
         unknown = set(variants) - {v.name for v in fig.variants}
         if unknown:
-            raise ValueError(f"{name}: unknown variant(s) {sorted(unknown)} (known: {[v.name for v in fig.variants]})")
+            raise FigureError(f"{name}: unknown variant(s) {sorted(unknown)} (known: {[v.name for v in fig.variants]})")
         fig = dataclasses.replace(
             fig, variants=tuple(v for i, v in enumerate(fig.variants) if i == 0 or v.name in variants)
         )
@@ -239,45 +297,30 @@ def run_figure(
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
             with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_pool_context()) as pool:
-                results = list(pool.map(_variant_job, jobs))
+                runs = list(pool.map(_variant_job, jobs))
         else:
-            results = [_run_variant(job[0], fig, *job[2:]) for job in jobs]
-        variants = {v.name: m for v, m in zip(fig.variants, results)}
-        primary = variants[fig.primary.name]
-        source = (
-            {"world": {"name": world.name, "file": world.path, "lap_length_m": primary["_lap_length"]}}
-            if world is not None
-            else {"real_log": fig.real_log}
+            runs = [
+                _run_variant(vdir, fig, variant, world, duration, seed, show_progress, recorder_factory, config)
+                for vdir, _, variant, *_ in jobs
+            ]
+        primary = runs[0]
+        run = RunResult(
+            figure=FigureInfo(name=fig.name, title=fig.title, notes=fig.notes),
+            world=None if world is None else WorldSource(world.name, str(world.path), primary.lap_length_m),
+            real_log=fig.real_log if world is None else None,
+            duration_s=primary.duration_s if duration is None else duration,
+            seed=seed,
+            fp_rate=fig.fp_rate,
+            variant_labels={v.name: v.label for v in fig.variants},
+            variants={v.name: r.result for v, r in zip(fig.variants, runs)},
+            extras=primary.result.extras,
         )
-        metrics = {
-            "figure": {"name": fig.name, "title": fig.title, "notes": fig.notes},
-            **source,
-            "duration_s": primary["_duration"] if duration is None else duration,
-            "seed": seed,
-            "fp_rate": fig.fp_rate,
-            "variant_labels": {v.name: v.label for v in fig.variants},
-            "variants": variants,
-        }
-        for v in variants.values():
-            v.pop("_lap_length", None)
-            v.pop("_duration", None)
-        if "rooms" in primary:
-            metrics["rooms"] = primary["rooms"]
-        metrics["claims"] = evaluate_claims(fig, metrics)
-        metrics["provenance"] = provenance(figure=fig.name, seed=seed, duration_s=duration)
-        write_json(stage / "metrics.json", metrics)
-        write_report(stage)
-    return out
-
-
-def evaluate_claims(fig: Figure, metrics: dict) -> list[dict]:
-    out = []
-    for c in fig.claims:
-        try:
-            measured, held = c.check(metrics)
-        except (KeyError, TypeError, ZeroDivisionError) as e:
-            measured, held = f"not measurable ({type(e).__name__}: {e})", False
-        out.append({"key": c.key, "statement": c.statement, "measured": measured, "held": bool(held)})
+        run = dataclasses.replace(
+            run,
+            claims=evaluate_claims(fig, run),
+            provenance=provenance(figure=fig.name, seed=seed, duration_s=duration),
+        )
+        write_run(stage, run)
     return out
 
 
@@ -285,7 +328,7 @@ def replay(
     log_path,
     out,
     show_progress: bool = True,
-    recorder_factory=None,
+    recorder_factory: RecorderFactory | None = None,
     ratslam_config: RatSLAMConfig | None = None,
     gtsam_config: PoseGraphConfig | None = None,
     config: ConfigOverrides | None = None,
@@ -295,6 +338,7 @@ def replay(
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
     and labels; the simulator's own streams get exactly the defaults)."""
     log = ObservationLog.read_csv(log_path)
+    name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
         rs_cfg, pg_cfg = ratslam_config, gtsam_config
         derivation = "Configurations given by the caller (nothing derived from the log)."
@@ -305,34 +349,29 @@ def replay(
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     out = Path(out)
     with staged_directory(out) as stage:
-        write_config_toml(
-            stage / "config.toml",
+        result = run_single_stream(
+            stage,
+            log,
             rs_cfg,
             pg_cfg,
-            f"Effective configuration of the replay of {Path(log_path).name}.\n"
+            config_header=f"Effective configuration of the replay of {name}.\n"
             f"{derivation}\n"
-            f"Reproduce: ratslam-harness replay {Path(log_path).name} --config config.toml",
+            f"Reproduce: ratslam-harness replay {name} --config config.toml",
+            progress=_progress(log, f"replay {name}", show_progress),
+            recorder_factory=recorder_factory,
         )
-        progress = Progress(len(log), f"replay {Path(log_path).name}", float(np.median(log.dt)), enabled=show_progress)
-        odometry = dead_reckon(log)
-        recorder = recorder_factory(stage, None, log, rs_cfg, odometry) if recorder_factory else None
-        res = run_stream(
-            log, rs_cfg, pg_cfg, on_tick=recorder.on_tick if recorder else None, progress=progress, odometry=odometry
+        result = dataclasses.replace(
+            result,
+            config=VariantConfig(ratslam=dataclasses.asdict(rs_cfg), gtsam=dataclasses.asdict(pg_cfg)),
+            derived_scale=derivation,
         )
-        if recorder:
-            recorder.close()
-        write_stream_outputs(stage, log, res)
-        m = evaluate_stream(res, log)
-        m["config"] = {"ratslam": dataclasses.asdict(rs_cfg), "gtsam": dataclasses.asdict(pg_cfg)}
-        m["derived_scale"] = derivation
-        metrics = {
-            "figure": None,
-            "title": f"replay of {Path(log_path).name}",
-            "log": str(log_path),
-            "duration_s": log.duration,
-            "variants": {"replay": m},
-            "provenance": provenance(log=str(log_path)),
-        }
-        write_json(stage / "metrics.json", metrics)
-        write_report(stage)
+        run = RunResult(
+            figure=None,
+            title=f"replay of {name}",
+            log=str(log_path),
+            duration_s=log.duration,
+            variants={"replay": result},
+            provenance=provenance(log=str(log_path)),
+        )
+        write_run(stage, run)
     return out

@@ -4,13 +4,36 @@ Each :class:`Figure` names a world, a duration, a seed, the false-positive rate,
 grid and one or more :class:`Variant` runs (Figs 8-10 run twice: the bias in RatSLAM's path
 integration only, as the paper did, and the bias in the odometry seen by both systems). Its
 :class:`Claim` entries are the paper's statements for that figure written as checks over the
-run's metrics; the report tabulates them (statement, measured value, held or not).
+run's typed result (:class:`harness.results.RunResult`); the report tabulates them (statement,
+measured value, held or not). A name a claim reads (variant, trajectory, count) is checked when
+the claim is defined or, read through an attribute, fails on first use; a quantity the run
+genuinely lacks makes the claim "not measurable" (:class:`NotMeasurable`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from worlds.errors import InputError
+
+from .results import ClaimResult, PerTrajectory, RunResult
+
+if TYPE_CHECKING:
+    from ratslam import RatSLAMConfig
+    from worlds import ObservationLog
+
+    from .runner import StreamResult
+
+
+class FigureError(InputError):
+    """An unknown figure or variant name (one line, listing the known ones)."""
+
+
+class NotMeasurable(Exception):
+    """A claim's quantity is missing from the run (e.g. no experiences, a NaN): the claim cannot be judged."""
 
 
 @dataclass(frozen=True)
@@ -28,22 +51,32 @@ class Variant:
 
 @dataclass(frozen=True)
 class Claim:
-    """A paper statement checked against measured metrics.
+    """A paper statement checked against a run's measured result.
 
-    ``check(metrics)`` gets the figure's metrics (``metrics["variants"][name]`` per variant) and
-    returns ``(measured, held)``: a short human-readable measured value and whether it held.
+    ``check(run)`` gets the figure's :class:`~harness.results.RunResult` and returns
+    ``(measured, held)``: a short human-readable measured value and whether it held; it raises
+    :class:`NotMeasurable` when a quantity it needs is missing. ``variants`` names the variant
+    runs it reads (checked against the figure's when the figure is registered).
     """
 
     key: str
     statement: str
-    check: Callable[[dict], tuple[str, bool]]
+    check: Callable[[RunResult], tuple[str, bool]]
+    variants: tuple[str, ...] = ()
+
+
+ExtraMetrics = Callable[["StreamResult", "ObservationLog", "RatSLAMConfig"], dict[str, Any]]
+"""A figure's own metrics of one variant's run: ``(stream result, observation log, RatSLAM's
+configuration) -> JSON-ready dict``, added to the variant's metrics (and, for the primary
+variant, at the top level of ``metrics.json``)."""
 
 
 @dataclass(frozen=True)
 class Figure:
     """A registered experiment: a simulated ``world`` for ``duration`` seconds, or a shipped real
     data set ``real_log`` (``worlds.real_data``: real odometry, scene numbers synthesised from its
-    ground truth with the seed; ``duration`` None = the whole log)."""
+    ground truth with the seed; ``duration`` None = the whole log). ``extra_metrics`` (optional)
+    measures what only this figure reports (see :data:`ExtraMetrics`)."""
 
     name: str
     title: str
@@ -56,45 +89,140 @@ class Figure:
     claims: tuple[Claim, ...] = ()
     notes: str = ""
     real_log: str | None = None
+    extra_metrics: ExtraMetrics | None = None
 
     @property
     def primary(self) -> Variant:
         return self.variants[0]
 
 
+def evaluate_claims(fig: Figure, run: RunResult) -> list[ClaimResult]:
+    """Each of the figure's claims checked on ``run``. A claim whose quantity is missing (or whose
+    variant was not run) is "not measurable" and not held; any other exception is a bug and raises."""
+    out = []
+    for c in fig.claims:
+        try:
+            missing = [v for v in c.variants if v not in run.variants]
+            if missing:
+                raise NotMeasurable(f"variant {', '.join(missing)} not run")
+            measured, held = c.check(run)
+        except NotMeasurable as e:
+            measured, held = f"not measurable ({e})", False
+        out.append(ClaimResult(key=c.key, statement=c.statement, measured=measured, held=bool(held)))
+    return out
+
+
 # --- claim helpers ---------------------------------------------------------------------------
 
 
-def _v(m, variant):
-    return m["variants"][variant]
+def measurable(value: float | None, what: str) -> float:
+    """``value`` if the run measured it; :class:`NotMeasurable` if it is missing or NaN."""
+    if value is None:
+        raise NotMeasurable(f"no {what}")
+    if math.isnan(value):
+        raise NotMeasurable(f"{what} is NaN")
+    return value
+
+
+# The counts of a variant run a claim may bound (fields of VariantResult).
+_COUNTS = (
+    "snaps",
+    "experiences",
+    "links",
+    "keyframes",
+    "multiple_representations",
+    "hash_collisions",
+    "loop_closures_proposed",
+    "isam2_recoveries",
+    "closures_dropped",
+)
+
+
+def _trajectory(system: str) -> str:
+    if system not in PerTrajectory.names():
+        raise ValueError(f"unknown trajectory {system!r} (known: {', '.join(PerTrajectory.names())})")
+    return system
+
+
+def _ate(run: RunResult, variant: str, system: str) -> float:
+    v = run.variant(variant)
+    if v.ate is None:
+        raise NotMeasurable("no ground truth")
+    return measurable(v.ate.get(system), f"{system} ATE")
 
 
 def ate_at_most(variant: str, system: str, bound: float, statement: str, key: str) -> Claim:
-    def check(m):
-        value = _v(m, variant)["ate"][system]
+    """``system``'s ATE in ``variant`` is at most ``bound`` metres."""
+    _trajectory(system)
+
+    def check(run: RunResult) -> tuple[str, bool]:
+        value = _ate(run, variant, system)
         return f"{system} ATE {value:.3f} m (bound {bound} m)", value <= bound
 
-    return Claim(key, statement, check)
+    return Claim(key, statement, check, (variant,))
 
 
 def ratio_at_least(variant: str, worse: str, better: str, factor: float, statement: str, key: str) -> Claim:
-    def check(m):
-        ate = _v(m, variant)["ate"]
-        ratio = ate[worse] / max(ate[better], 1e-9)
-        return (
-            f"{worse} {ate[worse]:.2f} m / {better} {ate[better]:.3f} m = {ratio:.1f}x (need {factor}x)",
-            ratio >= factor,
-        )
+    """``worse``'s ATE is at least ``factor`` times ``better``'s in ``variant``."""
+    _trajectory(worse), _trajectory(better)
 
-    return Claim(key, statement, check)
+    def check(run: RunResult) -> tuple[str, bool]:
+        w, b = _ate(run, variant, worse), _ate(run, variant, better)
+        ratio = w / max(b, 1e-9)
+        return f"{worse} {w:.2f} m / {better} {b:.3f} m = {ratio:.1f}x (need {factor}x)", ratio >= factor
+
+    return Claim(key, statement, check, (variant,))
 
 
 def count_at_least(variant: str, metric: str, minimum: int, statement: str, key: str) -> Claim:
-    def check(m):
-        value = _v(m, variant)[metric]
+    """The count ``metric`` (a field of :class:`VariantResult`) of ``variant`` is at least ``minimum``."""
+    if metric not in _COUNTS:
+        raise ValueError(f"unknown count {metric!r} (known: {', '.join(_COUNTS)})")
+
+    def check(run: RunResult) -> tuple[str, bool]:
+        value = getattr(run.variant(variant), metric)
+        if value is None:
+            raise NotMeasurable(f"no {metric.replace('_', ' ')}")
         return f"{metric.replace('_', ' ')} = {value} (need >= {minimum})", value >= minimum
 
-    return Claim(key, statement, check)
+    return Claim(key, statement, check, (variant,))
+
+
+def _only_orientation_differs(run: RunResult) -> tuple[str, bool]:
+    v = run.variant("paper")
+    if v.alignment_yaw_deg is None:
+        raise NotMeasurable("no ground truth")
+    yaw = measurable(v.alignment_yaw_deg.experience_map, "experience_map alignment")
+    ate = _ate(run, "paper", "experience_map")
+    return f"alignment yaw {yaw:.1f} deg, ATE {ate:.3f} m", ate <= 0.3
+
+
+def _loop_length(run: RunResult) -> tuple[str, bool]:
+    if run.world is None:
+        raise NotMeasurable("not a simulated world")
+    lap = measurable(run.world.lap_length_m, "lap length")
+    return f"lap {lap:.2f} m", abs(lap - 18.0) <= 1.8
+
+
+def _room_lap_separation(run: RunResult, where: str) -> float:
+    """Fig 11: the distance between the two laps' centres of room G/H (``where``: pose_cell or
+    experience_map), from the figure's extra metrics."""
+    return measurable(run.extras["rooms"][f"{where}_separation_m"], f"{where.replace('_', '-')} lap separation")
+
+
+def _two_pose_cell_loops(run: RunResult) -> tuple[str, bool]:
+    d = _room_lap_separation(run, "pose_cell")
+    return f"pose-cell lap centres {d:.2f} m apart", d >= 1.0
+
+
+def _laps_overlap_in_experience_map(run: RunResult) -> tuple[str, bool]:
+    d = _room_lap_separation(run, "experience_map")
+    return f"experience-map lap centres {d:.2f} m apart", d <= 0.5
+
+
+def _real_time(run: RunResult) -> tuple[str, bool]:
+    factor = measurable(run.variant("default").timing.ratslam_realtime_factor, "RatSLAM real-time factor")
+    return f"x{factor:.0f} real time", factor >= 1.0
 
 
 def _bias_claims(bias: float) -> tuple[Claim, ...]:
@@ -121,11 +249,8 @@ def _bias_claims(bias: float) -> tuple[Claim, ...]:
             "only_orientation_differs",
             "(b) Only the experience map's global orientation differs: after a rotation and "
             "translation it fits ground truth (ATE <= 0.3 m); the rotation is reported.",
-            lambda m: (
-                f"alignment yaw {_v(m, 'paper')['alignment_yaw_deg']['experience_map']:.1f} deg, "
-                f"ATE {_v(m, 'paper')['ate']['experience_map']:.3f} m",
-                _v(m, "paper")["ate"]["experience_map"] <= 0.3,
-            ),
+            _only_orientation_differs,
+            ("paper",),
         ),
     ]
     if bias <= 1.5:
@@ -203,7 +328,20 @@ FIGURES: dict[str, Figure] = {}
 
 
 def _register(fig: Figure) -> None:
+    """Add ``fig`` to the registry; a claim reading a variant the figure does not run is an error."""
+    names = {v.name for v in fig.variants}
+    for c in fig.claims:
+        unknown = set(c.variants) - names
+        if unknown:
+            raise ValueError(f"{fig.name}: claim {c.key!r} reads unknown variant(s) {sorted(unknown)}")
     FIGURES[fig.name] = fig
+
+
+def _room_gh_laps(res: StreamResult, log: ObservationLog, config: RatSLAMConfig) -> dict[str, Any]:
+    """Fig 11's extra metrics: the two laps of room G/H (imported on use: the registry stays light)."""
+    from .room_laps import room_gh_metrics
+
+    return room_gh_metrics(res, log, config)
 
 
 _register(
@@ -262,7 +400,7 @@ _register(
             Claim(
                 "loop_length",
                 "The loop is about 18 m long (within 10%).",
-                lambda m: (f"lap {m['world']['lap_length_m']:.2f} m", abs(m["world"]["lap_length_m"] - 18.0) <= 1.8),
+                _loop_length,
             ),
             ate_at_most(
                 "default",
@@ -290,18 +428,12 @@ _register(
             Claim(
                 "g_h_two_pose_cell_loops",
                 "The twice-lapped room appears as two loops in the pose cells (lap centres >= 1 m apart).",
-                lambda m: (
-                    f"pose-cell lap centres {m['rooms']['pose_cell_separation_m']:.2f} m apart",
-                    m["rooms"]["pose_cell_separation_m"] >= 1.0,
-                ),
+                _two_pose_cell_loops,
             ),
             Claim(
                 "g_h_overlap_in_experience_map",
                 "... but the two laps overlap in the experience map (lap centres <= 0.5 m apart).",
-                lambda m: (
-                    f"experience-map lap centres {m['rooms']['experience_map_separation_m']:.2f} m apart",
-                    m["rooms"]["experience_map_separation_m"] <= 0.5,
-                ),
+                _laps_overlap_in_experience_map,
             ),
             count_at_least(
                 "default",
@@ -332,6 +464,7 @@ _register(
         "20 minutes: with view injection off, path integration alone puts the laps 0.30 m apart, and "
         "with 0.3 or 1 deg/s of odometric bias added the pose cells still relocalise (0.02 m) while "
         "the experience map degrades (ATE 0.52 / 7.7 m over the hour).",
+        extra_metrics=_room_gh_laps,
     )
 )
 
@@ -352,10 +485,8 @@ _register(
             Claim(
                 "real_time",
                 "RatSLAM runs faster than real time (the paper: real time on a 1.1 GHz laptop).",
-                lambda m: (
-                    f"x{m['variants']['default']['timing']['ratslam_realtime_factor']:.0f} real time",
-                    m["variants"]["default"]["timing"]["ratslam_realtime_factor"] >= 1.0,
-                ),
+                _real_time,
+                ("default",),
             ),
         ),
     )
@@ -368,14 +499,19 @@ def improves_on_odometry(variant: str, system: str, factor: float, statement: st
 
 
 def closure_quality_at_least(variant: str, precision: float, recall: float, statement: str, key: str) -> Claim:
-    def check(m):
-        lc = _v(m, variant)["loop_closure"]
+    """The pose graph's loop closures in ``variant`` reach ``precision`` and ``recall``."""
+
+    def check(run: RunResult) -> tuple[str, bool]:
+        lc = run.variant(variant).loop_closure
+        if lc is None:
+            raise NotMeasurable("no loop-closure quality")
+        p, r = measurable(lc.precision, "loop-closure precision"), measurable(lc.recall, "loop-closure recall")
         return (
-            f"precision {lc['precision']:.3f} (need >= {precision}), recall {lc['recall']:.3f} (need >= {recall})",
-            lc["precision"] >= precision and lc["recall"] >= recall,
+            f"precision {p:.3f} (need >= {precision}), recall {r:.3f} (need >= {recall})",
+            p >= precision and r >= recall,
         )
 
-    return Claim(key, statement, check)
+    return Claim(key, statement, check, (variant,))
 
 
 def _improvement(system: str, factor: float) -> str:
@@ -464,4 +600,4 @@ def get_figure(name: str) -> Figure:
     try:
         return FIGURES[name]
     except KeyError:
-        raise ValueError(f"unknown figure {name!r} (known: {', '.join(FIGURES)})") from None
+        raise FigureError(f"unknown figure {name!r} (known: {', '.join(FIGURES)})") from None

@@ -49,6 +49,7 @@ import os
 import uuid
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -209,11 +210,12 @@ class Recorder:
         cap = 1024
         self._gt = np.full((cap, 3), np.nan)  # ground truth per tick, for alignment and live ATE
         self._odom = np.full((cap, 3), np.nan)
-        self._prev = {}
-        self._anchor = None  # (cos, sin, tx, ty): odometry frame -> ground-truth frame, from the first tick
+        self._prev: dict[str, tuple[float, float]] = {}
+        # (cos, sin, tx, ty): odometry frame -> ground-truth frame, from the first tick
+        self._anchor: tuple[float, float, float, float] | None = None
         self._snaps = 0
-        self._last = None  # (tick, t, ratslam, gtsam) of the last log_tick, for close()
-        self._last_map_tick = None
+        self._last: tuple[int, float, Any, Any] | None = None  # (tick, t, ratslam, gtsam) of the last log_tick
+        self._last_map_tick: int | None = None
         self._static(walls)
 
     # ------------------------------------------------------------------ static content
@@ -332,7 +334,7 @@ class Recorder:
         rec.set_time("tick", sequence=k)
         rec.set_time("sim_time", duration=t)
         self._last_map_tick = k
-        scalars = {"count/snaps": self._snaps}
+        scalars: dict[str, float] = {"count/snaps": self._snaps}
         if ratslam is not None:
             poses = np.asarray(ratslam.experience_poses, dtype=float).reshape(-1, 3)
             links = np.asarray(ratslam.links, dtype=np.int64).reshape(-1, 2)
@@ -414,22 +416,22 @@ class Recorder:
             self.rec.disconnect()
             Path(self._tmp).unlink(missing_ok=True)
 
-    def __enter__(self):
+    def __enter__(self) -> Recorder:
         return self
 
-    def __exit__(self, exc_type, exc, tb):
+    def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is None:
             self.close()
         else:
             self.abort()
-        return False
 
 
 class StreamRecorder:
     """A :class:`Recorder` fed from an observation log, for the runner's per-tick callback.
 
     ``on_tick(k, ratslam, gtsam)`` logs tick k with the log's time, ground truth (if any),
-    dead-reckoned odometry and false-positive flag; ``close()`` finishes the file.
+    dead-reckoned odometry and false-positive flag; ``close()`` finishes the file. Used as a
+    context manager, it closes on success and aborts (removes the partial file) on an error.
     """
 
     def __init__(self, recorder: Recorder, t, odometry, ground_truth=None, false_positive=None):
@@ -451,10 +453,22 @@ class StreamRecorder:
         )
 
     def close(self) -> Path:
+        """Finish the recording (see :meth:`Recorder.close`)."""
         return self.recorder.close()
 
     def abort(self) -> None:
+        """Stop recording and delete the partial file (see :meth:`Recorder.abort`)."""
         self.recorder.abort()
+
+    def __enter__(self) -> StreamRecorder:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        # an error (or Ctrl-C) inside the block leaves no half-written recording behind
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
 
 
 def recorder_factory(run_dir, world, log, ratslam_config, odometry, **options) -> StreamRecorder:

@@ -21,10 +21,12 @@ from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 
+from worlds.errors import InputError
+
 PACKAGES = ("ratslam-harness", "numpy", "scipy", "gtsam", "rerun-sdk", "pymunk", "matplotlib")
 
 
-class OutputError(Exception):
+class OutputError(InputError):
     """The output location cannot be used (one line: path and problem)."""
 
 

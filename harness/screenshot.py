@@ -30,10 +30,12 @@ import tempfile
 import time
 from pathlib import Path
 
+from worlds.errors import InputError
+
 VULKAN_ICD_DIRS = ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d", "/usr/local/share/vulkan/icd.d")
 
 
-class ScreenshotError(RuntimeError):
+class ScreenshotError(InputError, RuntimeError):
     """The screenshot could not be taken (one line: what is missing or what failed)."""
 
 

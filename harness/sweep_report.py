@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_json
 
 from .sweep_spec import AXES
@@ -47,7 +48,7 @@ COLUMNS = (
 WALL_COLUMNS = ("wall_s", "run_wall_s")
 
 
-class SweepReportError(Exception):
+class SweepReportError(InputError):
     """A sweep directory that cannot be reported on (one line: path and problem)."""
 
 

@@ -22,6 +22,7 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
+from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_json, read_text, write_json
 
 from .sweep_spec import AXES, SweepSpec, system_config
@@ -87,7 +88,7 @@ def run_tasks(spec: SweepSpec, code: str) -> list[dict]:
 # ---------------------------------------------------------------------------- executors
 
 
-class SchedulerError(RuntimeError):
+class SchedulerError(InputError, RuntimeError):
     """The Dask cluster cannot be used (one line: address and problem)."""
 
 

@@ -51,6 +51,7 @@ from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
 from ratslam.config_fields import ConfigError, replace
 from worlds import load_world
+from worlds.errors import InputError
 
 from .config_file import read_config_table, read_toml, where
 
@@ -82,7 +83,7 @@ AXES = {
 }
 
 
-class SweepSpecError(ValueError):
+class SweepSpecError(InputError):
     """A malformed sweep spec. The message is one line: file, key, problem."""
 
 

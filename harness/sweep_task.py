@@ -14,8 +14,13 @@ import os
 import time
 import traceback
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from baselines import PoseGraphSLAM
+    from ratslam import RatSLAM
 
 
 def condition_world(world_name: str, condition: dict, lookalikes: bool = True):
@@ -44,19 +49,11 @@ def _ate(est, gt) -> float:
     return float(metrics.ate_rmse(est, gt)) if len(est) >= 2 else math.nan
 
 
-def _run_system(kind: str, config_fields: dict, log, gt: np.ndarray) -> dict:
-    """One system over the whole log: accuracy (online and map), sizes, wall time."""
-    from baselines import PoseGraphConfig, PoseGraphSLAM
-    from ratslam import RatSLAM, RatSLAMConfig
-    from ratslam.config_fields import from_dict
+def _drive(system: RatSLAM | PoseGraphSLAM, log) -> tuple[np.ndarray, int, float]:
+    """Step ``system`` through the whole log: its online pose per tick, the snaps of RatSLAM's
+    pose cells (0 for the pose graph) and the wall time."""
+    from ratslam import RatSLAM
 
-    from .evaluate import CLOSURE_TRUE_DISTANCE, _closure_quality
-
-    system = (
-        RatSLAM(from_dict(RatSLAMConfig, config_fields))
-        if kind == "ratslam"
-        else PoseGraphSLAM(from_dict(PoseGraphConfig, config_fields))
-    )
     n = len(log)
     online = np.zeros((n, 3))
     snaps = 0
@@ -65,32 +62,47 @@ def _run_system(kind: str, config_fields: dict, log, gt: np.ndarray) -> dict:
     for k, (dt, v, w, scene) in enumerate(rows):
         system.step(dt, v, w, scene)
         online[k] = system.pose
-        if kind == "ratslam":
+        if isinstance(system, RatSLAM):
             snaps += system.snapped
-    if kind == "gtsam":
+    if not isinstance(system, RatSLAM):
         system.finalize()
-    wall = time.perf_counter() - t0
-    out = {"ate_online": _ate(online, gt), "wall_s": wall}
+    return online, snaps, time.perf_counter() - t0
+
+
+def _run_system(kind: str, config_fields: dict, log, gt: np.ndarray) -> dict[str, Any]:
+    """One system over the whole log: accuracy (online and map), sizes, wall time."""
+    from baselines import PoseGraphConfig, PoseGraphSLAM
+    from ratslam import RatSLAM, RatSLAMConfig
+    from ratslam.config_fields import from_dict
+
+    from .evaluate import CLOSURE_TRUE_DISTANCE, closure_quality
+
     if kind == "ratslam":
-        ticks = system.experience_first_tick
-        out.update(
-            ate_map=_ate(system.experience_poses, gt[ticks]),
-            nodes=int(len(ticks)),
-            snaps=int(snaps),
-            closure_precision=None,
-            closure_recall=None,
-        )
-    else:
-        ticks = system.keyframe_ticks
-        lc = _closure_quality(system, gt, CLOSURE_TRUE_DISTANCE)
-        out.update(
-            ate_map=_ate(system.keyframe_poses, gt[ticks]),
-            nodes=int(len(ticks)),
-            snaps=None,
-            closure_precision=lc["precision"],
-            closure_recall=lc["recall"],
-        )
-    return out
+        rs = RatSLAM(from_dict(RatSLAMConfig, config_fields))
+        online, snaps, wall = _drive(rs, log)
+        ticks = rs.experience_first_tick
+        return {
+            "ate_online": _ate(online, gt),
+            "wall_s": wall,
+            "ate_map": _ate(rs.experience_poses, gt[ticks]),
+            "nodes": int(len(ticks)),
+            "snaps": int(snaps),
+            "closure_precision": None,
+            "closure_recall": None,
+        }
+    pg = PoseGraphSLAM(from_dict(PoseGraphConfig, config_fields))
+    online, _, wall = _drive(pg, log)
+    ticks = pg.keyframe_ticks
+    lc = closure_quality(pg, gt, CLOSURE_TRUE_DISTANCE)
+    return {
+        "ate_online": _ate(online, gt),
+        "wall_s": wall,
+        "ate_map": _ate(pg.keyframe_poses, gt[ticks]),
+        "nodes": int(len(ticks)),
+        "snaps": None,
+        "closure_precision": lc.precision,
+        "closure_recall": lc.recall,
+    }
 
 
 def run_one(task: dict) -> dict:

@@ -265,6 +265,63 @@ def test_abort_leaves_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_stream_recorder_is_aborted_on_an_error(tmp_path):
+    """Used as a context manager, a StreamRecorder closes on success and, on an error inside the
+    block, removes its partial file: no recording.rrd, nothing half-written."""
+    from harness.recorder import StreamRecorder
+
+    n = 5
+    odo = np.zeros((n, 3))
+    t = np.arange(n) * 0.1
+    with (
+        pytest.raises(RuntimeError, match="run failed"),
+        StreamRecorder(Recorder(tmp_path / "recording.rrd", None, GRID), t, odo) as rec,
+    ):
+        rec.on_tick(0, None, None)
+        raise RuntimeError("run failed")
+    assert list(tmp_path.iterdir()) == []
+    with StreamRecorder(Recorder(tmp_path / "recording.rrd", None, GRID), t, odo) as rec:
+        rec.on_tick(0, None, None)
+    assert [p.name for p in tmp_path.iterdir()] == ["recording.rrd"]
+
+
+def test_a_failing_run_leaves_no_recording(tmp_path, monkeypatch):
+    """A run that fails part-way through its stream aborts the recording it was writing."""
+    import harness.figure_run as fr
+    from baselines import PoseGraphConfig
+    from harness.progress import Progress
+    from harness.recorder import recorder_factory
+    from ratslam import RatSLAMConfig
+    from worlds import load_world, simulate
+
+    world = load_world("small_loop")
+    log = simulate(world, duration=5.0, seed=0)
+
+    def failing_run_stream(log, rs_cfg, pg_cfg, on_tick=None, progress=None, odometry=None):
+        from baselines import PoseGraphSLAM
+        from ratslam import RatSLAM
+
+        rs, pg = RatSLAM(rs_cfg), PoseGraphSLAM(pg_cfg)
+        for k in range(10):
+            rs.step(log.dt[k], log.v_trans[k], log.v_rot[k], log.scene_id[k])
+            on_tick(k, rs, pg)
+        raise RuntimeError("failed at tick 10")
+
+    monkeypatch.setattr(fr, "run_stream", failing_run_stream)
+    with pytest.raises(RuntimeError, match="tick 10"):
+        fr.run_single_stream(
+            tmp_path,
+            log,
+            RatSLAMConfig(),
+            PoseGraphConfig(),
+            config_header="test",
+            progress=Progress(len(log), "test", enabled=False),
+            world=world,
+            recorder_factory=recorder_factory,
+        )
+    assert not [p.name for p in tmp_path.iterdir() if ".rrd" in p.name]
+
+
 def test_bad_config_is_one_line_value_error(tmp_path):
     with pytest.raises(ValueError, match="every_map"):
         Recorder(tmp_path / "r.rrd", None, GRID, every_map=0)

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .observation_log import ObservationLog
 from .trajectory_import import _interpolate_poses, assemble_log, odometry_from_tum
 from .world import SceneSpec
@@ -31,7 +32,7 @@ INTEGERS = tuple(
 )
 
 
-class BagImportError(ValueError):
+class BagImportError(InputError):
     """A bag that cannot be imported (one line: bag, topic, problem)."""
 
 

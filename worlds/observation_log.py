@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .files import atomic_write_text, read_text
 
 REQUIRED_COLUMNS = ("t", "dt", "v_trans", "v_rot", "scene_id")
@@ -22,7 +23,7 @@ GROUND_TRUTH_COLUMNS = ("gt_x", "gt_y", "gt_theta", "false_positive")
 _INT_COLUMNS = {"scene_id", "false_positive"}
 
 
-class ObservationLogError(ValueError):
+class ObservationLogError(InputError):
     """A malformed observation log. The message is one line: file, line/column, problem."""
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .geometry import wrap_angle
 from .observation_log import ObservationLog
 from .scenes import SceneLayout, observe_scenes
@@ -43,16 +44,20 @@ PLAZA_SCENES = SceneSpec(
 heading sectors, 10% aliasing (cells at least 6 m apart), 10% blank, 0.2% false positives."""
 
 
+class RealDataError(InputError):
+    """A real data set that is unknown, not installed or malformed (one line: set or file, problem)."""
+
+
 def plaza_file(name: str) -> Path:
     """Path of a Plaza data set in the installed gtsam package."""
     key = name.lower()
     if key not in PLAZA_SETS:
-        raise ValueError(f"{name}: unknown real data set (known: {', '.join(PLAZA_SETS)})")
+        raise RealDataError(f"{name}: unknown real data set (known: {', '.join(PLAZA_SETS)})")
     import gtsam
 
     path = Path(gtsam.__file__).parent / "Data" / PLAZA_SETS[key]
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: not in the installed gtsam package")
+        raise RealDataError(f"{path}: not in the installed gtsam package")
     return path
 
 
@@ -113,11 +118,11 @@ def load_plaza(
     data = loadmat(str(path))
     dr, gt = np.asarray(data["DR"], float), np.asarray(data["GT"], float)
     if dr.ndim != 2 or gt.ndim != 2 or dr.shape[1] < 3 or gt.shape[1] < 4 or len(gt) != len(dr) + 1:
-        raise ValueError(f"{path}: DR/GT: expected DR (n, 3) and GT (n + 1, 4), got {dr.shape} and {gt.shape}")
+        raise RealDataError(f"{path}: DR/GT: expected DR (n, 3) and GT (n + 1, 4), got {dr.shape} and {gt.shape}")
     t = dr[:, 0]
     dt = np.diff(gt[:, 0])
     if not np.all(dt > 0):
-        raise ValueError(f"{path}: GT: time stamps are not strictly increasing")
+        raise RealDataError(f"{path}: GT: time stamps are not strictly increasing")
     theta = gt[:, 3] + (math.pi if heading_points_backwards(gt[:, 1], gt[:, 2], gt[:, 3]) else 0.0)
     theta = wrap_angle(theta)
     if fp_rate is not None:

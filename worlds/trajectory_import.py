@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .files import read_text
 from .geometry import wrap_angle
 from .observation_log import ObservationLog
@@ -30,7 +31,7 @@ from .real_data import labelled_log
 from .world import SceneSpec
 
 
-class TrajectoryImportError(ValueError):
+class TrajectoryImportError(InputError):
     """A malformed trajectory or label file (one line: file, line, problem)."""
 
 

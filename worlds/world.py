@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .geometry import point_segment_distance, polyline_segments, rectangle_outline, segments_cross
 
 WORLDS_DIR = Path(__file__).resolve().parent
 
 
-class WorldFileError(ValueError):
+class WorldFileError(InputError):
     """A world file is malformed or inconsistent. The message is one line: file, field, problem."""
 
     def __init__(self, path, field_name: str, problem: str):

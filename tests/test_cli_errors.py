@@ -1,0 +1,101 @@
+"""One base for user-facing errors: the CLI reports an ``InputError`` as one line (exit 2) and
+lets anything else, a bug, raise with its traceback."""
+
+import subprocess
+import sys
+
+import pytest
+
+import harness.cli as cli
+from worlds import InputError
+
+
+def _user_facing_errors():
+    from harness.cli import CliError
+    from harness.config_file import ConfigFileError
+    from harness.figures import FigureError
+    from harness.report import ReportError
+    from harness.results import ResultsError
+    from harness.run_dir import OutputError
+    from harness.screenshot import ScreenshotError
+    from harness.sweep_report import SweepReportError
+    from harness.sweep_run import SchedulerError
+    from harness.sweep_spec import SweepSpecError
+    from worlds import ObservationLogError, WorldFileError
+    from worlds.bag_import import BagImportError
+    from worlds.real_data import RealDataError
+    from worlds.trajectory_import import TrajectoryImportError
+
+    return (
+        CliError,
+        ConfigFileError,
+        FigureError,
+        ReportError,
+        ResultsError,
+        OutputError,
+        ScreenshotError,
+        SweepReportError,
+        SchedulerError,
+        SweepSpecError,
+        ObservationLogError,
+        WorldFileError,
+        BagImportError,
+        RealDataError,
+        TrajectoryImportError,
+    )
+
+
+@pytest.mark.parametrize("error", _user_facing_errors(), ids=lambda e: e.__name__)
+def test_every_user_facing_error_derives_from_input_error(error, monkeypatch, capsys):
+    assert issubclass(error, InputError)
+    instance = error.__new__(error)
+    Exception.__init__(instance, "somewhere: went wrong")
+
+    def fail(args):
+        raise instance
+
+    monkeypatch.setattr(cli, "_cmd_list", fail)
+    assert cli.main(["list"]) == 2
+    err = capsys.readouterr().err
+    assert err == "ratslam-harness: error: somewhere: went wrong\n"
+
+
+@pytest.mark.parametrize("error", [ValueError, KeyError, TypeError, RuntimeError])
+def test_other_exceptions_are_bugs_and_raise(error, monkeypatch):
+    def fail(args):
+        raise error("a bug")
+
+    monkeypatch.setattr(cli, "_cmd_list", fail)
+    with pytest.raises(error, match="a bug"):
+        cli.main(["list"])
+
+
+def _cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True, cwd=cwd)
+
+
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (
+            ("run", "fig7", "--config", "{bad_config}", "--out", "{out}"),
+            "[ratslam.pose_cells] nx: must be an integer >= 4",
+        ),
+        (("replay", "{bad_log}", "--out", "{out}"), "bad.csv"),
+        (("report", "{bad_run}"), "metrics.json: cannot be read as JSON"),
+        (("import", "tum", "{bad_log}", "--synthesise", "--out", "{out}/log.csv"), "bad.csv"),
+    ],
+    ids=["config_file", "observation_log", "metrics_json", "tum_import"],
+)
+def test_bad_inputs_are_one_line(tmp_path, args, expected):
+    (tmp_path / "bad.toml").write_text('[ratslam.pose_cells]\nnx = "sixty"\n')
+    (tmp_path / "bad.csv").write_text("t,dt\n1,2\n")
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "metrics.json").write_text("{")
+    (tmp_path / "run" / "maps.npz").write_bytes(b"")
+    paths = {"bad_config": tmp_path / "bad.toml", "bad_log": tmp_path / "bad.csv", "bad_run": tmp_path / "run"}
+    r = _cli(*(a.format(out=tmp_path / "out", **paths) for a in args), cwd=tmp_path)
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and expected in lines[0], r.stderr
+    assert not any(p.is_file() for p in (tmp_path / "out").rglob("*"))  # nothing written
