@@ -172,7 +172,9 @@ class PoseGraphSLAM:
         if cfg.yaw_bias.estimate:
             odo = BiasedOdometry(dt, v, w)
             z = odo.measured(self._bias)
-            odo_factor = biased_odometry_factor(X(prev), X(j), BIAS_KEY, odo, odometry_noise(cov))
+            odo_factor: gtsam.NonlinearFactor = biased_odometry_factor(
+                X(prev), X(j), BIAS_KEY, odo, odometry_noise(cov)
+            )
         else:
             z = gtsam.Pose2(*integrate(dt, v, w))
             odo_factor = gtsam.BetweenFactorPose2(X(prev), X(j), z, odometry_noise(cov))
@@ -235,7 +237,7 @@ class PoseGraphSLAM:
         self._update_isam(tagged, new_values, last=last)
         if closure_factors:
             for _ in range(cfg.optimisation.isam2_extra_updates):
-                self._isam.update()
+                self._online_isam.update()
         if cfg.backend.kind == "gnc":
             self._keyframes_since_gnc += 1
             if self._keyframes_since_gnc >= cfg.backend.gnc_interval_keyframes and self._has_pending():
@@ -281,6 +283,12 @@ class PoseGraphSLAM:
         return self._graph.at(self._lc_graph_index[c])
 
     # ------------------------------------------------------------------ iSAM2 updates
+    @property
+    def _online_isam(self) -> gtsam.ISAM2:
+        """The iSAM2 instance (kept only when optimising online)."""
+        assert self._isam is not None, "iSAM2 is kept only with optimisation.online"
+        return self._isam
+
     def _update_isam(self, tagged: list, values: gtsam.Values, remove=(), last=None) -> None:
         """One iSAM2 update with ``tagged`` new factors ``(factor, closure index or None)``.
 
@@ -295,9 +303,9 @@ class PoseGraphSLAM:
             graph.add(factor)
         try:
             if last is None:
-                result = self._isam.update(graph, values, list(remove))
+                result = self._online_isam.update(graph, values, list(remove))
             else:
-                result = self._isam.update(graph, values, list(remove), last)
+                result = self._online_isam.update(graph, values, list(remove), last)
             indices = list(result.getNewFactorsIndices())
         except RuntimeError as e:
             if "Indeterminate" not in str(e):
@@ -310,8 +318,9 @@ class PoseGraphSLAM:
     def _recover(self, tagged: list, values: gtsam.Values) -> list[int]:
         """Rebuild iSAM2 (QR) with what it held plus ``tagged``; returns the indices of ``tagged``."""
         self._recoveries += 1
-        theta = self._isam.getLinearizationPoint()  # the estimate so far
+        theta = self._online_isam.getLinearizationPoint()  # the estimate so far
         n_new_inliers = sum(1 for _, c in tagged if c is None)
+        held: list[tuple[gtsam.NonlinearFactor, int | None]]
         held = [(self._graph.at(g), None) for g in self._known_inliers[: len(self._known_inliers) - n_new_inliers]]
         held += [(self._isam_closure_factor(c), c) for c in range(len(self._lc_i)) if self._lc_isam_index[c] >= 0]
         for attempt in range(2):
@@ -363,16 +372,16 @@ class PoseGraphSLAM:
     def _estimate_pose2(self, i: int) -> tuple[float, float, float]:
         """Current estimate of keyframe ``i`` (its odometry guess when offline)."""
         if self._isam is not None and i < self._isam_keyframes:
-            p = self._isam.calculateEstimatePose2(X(i))
+            p = self._online_isam.calculateEstimatePose2(X(i))
         else:  # offline, or a keyframe waiting for iSAM2 (its guess is what iSAM2 would give)
             p = self._values.atPose2(X(i))
         return p.x(), p.y(), p.theta()
 
     def _refresh_latest(self) -> None:
         j = len(self._kf_ticks) - 1
-        self._latest = self._isam.calculateEstimatePose2(X(j))
+        self._latest = self._online_isam.calculateEstimatePose2(X(j))
         if self._config.yaw_bias.estimate:
-            self._bias = float(self._isam.calculateEstimateVector(BIAS_KEY)[0])
+            self._bias = float(self._online_isam.calculateEstimateVector(BIAS_KEY)[0])
 
     def _estimate_xy(self, i: int) -> tuple[float, float]:
         return self._estimate_pose2(i)[:2]
@@ -385,7 +394,7 @@ class PoseGraphSLAM:
         if self._batch is not None:
             return self._batch
         if self._isam is not None:
-            values = self._isam.calculateEstimate()
+            values = self._online_isam.calculateEstimate()
             if self._deferred_factors:
                 values.insert(self._deferred_values)
             return values
@@ -418,7 +427,7 @@ class PoseGraphSLAM:
         if added or remove:
             self._update_isam([(self._isam_closure_factor(c), c) for c in added], gtsam.Values(), remove)
             for _ in range(self._config.optimisation.isam2_extra_updates):
-                self._isam.update()
+                self._online_isam.update()
 
     # ------------------------------------------------------------------ finalize
     def finalize(self) -> None:
@@ -557,5 +566,5 @@ def _scene_number(scene_id) -> int:
     if isinstance(scene_id, numbers.Integral):
         return int(scene_id)
     if isinstance(scene_id, numbers.Real) and float(scene_id).is_integer():
-        return int(scene_id)
+        return int(float(scene_id))
     raise ValueError(f"step: scene_id must be an integer, got {scene_id!r}")

@@ -10,6 +10,8 @@ Entity paths and their meaning are listed in :mod:`harness.recorder`.
 
 from __future__ import annotations
 
+from typing import Any
+
 import rerun.blueprint as rrb
 
 #: Entities whose per-tick segments accumulate: drawn from the first tick to the time cursor.
@@ -31,7 +33,7 @@ def default_blueprint(grid_shape, world_bounds=None) -> rrb.Blueprint:
     ``world_bounds``: ``(x0, y0, x1, y1)`` metres framing the world panel (None: fit the data).
     """
     nx, ny = int(grid_shape[0]), int(grid_shape[1])
-    world_kw = {}
+    world_kw: dict[str, Any] = {}
     if world_bounds is not None:
         x0, y0, x1, y1 = (float(v) for v in world_bounds)
         mx, my = 0.05 * (x1 - x0) + 0.5, 0.05 * (y1 - y0) + 0.5

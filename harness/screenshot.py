@@ -109,7 +109,7 @@ def screenshot(
                     raise failed("viewer did not start in time") from None
                 time.sleep(0.2)
         client.open([str(rrd_path)])
-        end = None
+        end: int | None = None
         while True:
             if proc.poll() is not None:
                 raise failed(f"viewer exited with status {proc.returncode}")
@@ -122,8 +122,10 @@ def screenshot(
             if time.monotonic() > deadline:
                 raise failed("recording did not load in time")
             time.sleep(0.25)
-        at = end if tick is None else int(tick)
-        client.set_time("tick", sequence=at, play_state="paused")
+        if tick is not None:
+            end = int(tick)
+        assert end is not None  # the loop above leaves only with the timeline's end
+        client.set_time("tick", sequence=end, play_state="paused")
         png_path.parent.mkdir(parents=True, exist_ok=True)
         # The viewer fetches the chunks a view needs after the time cursor moves: shoot until two
         # consecutive screenshots are identical (a large recording takes several seconds).
@@ -141,7 +143,7 @@ def screenshot(
         views = {v.name: [f"{r.severity}: {r.summary}" for r in v.reports] for v in client.get_state().views}
         if proc.poll() is not None or not png_path.exists():
             raise failed("viewer crashed while drawing")
-        return {"png": png_path, "tick": at, "views": views}
+        return {"png": png_path, "tick": end, "views": views}
     finally:
         _stop(proc)
         log.close()

@@ -126,7 +126,7 @@ class LocalExecutor(Executor):
                     os.environ[k] = v
 
     def run(self, fn, tasks):
-        pending = {}
+        pending: dict = {}
         queue = list(tasks)
         while queue or pending:
             while queue and len(pending) < 2 * self.workers:

@@ -69,7 +69,9 @@ class _Growable:
         self._spec = spec
         self.n = 0
         self._cap = 64
-        self.cols = {k: np.zeros((self._cap,) + shape, dtype=dt) for k, (shape, dt) in spec.items()}
+        self.cols: dict[str, np.ndarray] = {
+            k: np.zeros((self._cap, *shape), dtype=dt) for k, (shape, dt) in spec.items()
+        }
 
     def append(self, **values) -> int:
         if self.n == self._cap:
@@ -138,7 +140,7 @@ class ExperienceMap:
             [fusion.position_sigma_m**2, fusion.position_sigma_m**2, math.radians(fusion.heading_sigma_deg) ** 2]
         )
         self._grid = np.array(config.shape, dtype=float)
-        self._divisor_key = None
+        self._divisor_key: tuple | None = None
 
     # ------------------------------------------------------------------ read access
     @property
@@ -188,8 +190,8 @@ class ExperienceMap:
         ax, ay, aphi, _ = self._acc
         if self.current < 0:
             return (float(ax), float(ay), float(_wrap_scalar(aphi)))
-        c = self._exp.cols
-        x, y, th = c["x"][self.current], c["y"][self.current], c["th"][self.current]
+        cols = self._exp.cols
+        x, y, th = cols["x"][self.current], cols["y"][self.current], cols["th"][self.current]
         c, s = math.cos(th), math.sin(th)
         return (float(x + c * ax - s * ay), float(y + s * ax + c * ay), float(_wrap_scalar(th + aphi)))
 

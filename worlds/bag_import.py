@@ -56,7 +56,7 @@ def _connection(reader, bag, topic: str, types: tuple[str, ...], role: str):
 
 def _poses(reader, bag, topic: str, types, role: str, twist: bool = False) -> np.ndarray:
     """Rows ``t, x, y, yaw[, v, w]`` of a pose topic, in message order."""
-    rows = []
+    rows: list[list[float]] = []
     for connection, _, raw in reader.messages(connections=_connection(reader, bag, topic, types, role)):
         msg = reader.deserialize(raw, connection.msgtype)
         pose = msg.pose.pose if connection.msgtype == ODOMETRY else msg.pose
@@ -68,26 +68,26 @@ def _poses(reader, bag, topic: str, types, role: str, twist: bool = False) -> np
         rows.append(row)
     if len(rows) < 2:
         raise BagImportError(f"{bag}: topic {topic} ({role}): needs at least 2 messages, got {len(rows)}")
-    rows = np.array(rows)
-    back = np.flatnonzero(np.diff(rows[:, 0]) <= 0)
+    table = np.array(rows)
+    back = np.flatnonzero(np.diff(table[:, 0]) <= 0)
     if back.size:
         raise BagImportError(
             f"{bag}: topic {topic} ({role}): message {back[0] + 2}: header stamp not after "
             f"the previous one (time order)"
         )
-    return rows
+    return table
 
 
 def _labels(reader, bag, topic: str) -> np.ndarray:
-    rows = []
+    rows: list[tuple[float, int]] = []
     for connection, timestamp, raw in reader.messages(
         connections=_connection(reader, bag, topic, INTEGERS, "place labels")
     ):
         rows.append((timestamp * 1e-9, int(reader.deserialize(raw, connection.msgtype).data)))
     if not rows:
         raise BagImportError(f"{bag}: topic {topic} (place labels): no messages")
-    rows = np.array(rows)
-    return rows[np.argsort(rows[:, 0], kind="stable")]
+    table = np.array(rows)
+    return table[np.argsort(table[:, 0], kind="stable")]
 
 
 def import_bag(

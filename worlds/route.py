@@ -69,7 +69,7 @@ class RouteFollower:
 
     def _path_to_untravelled(self, start: str) -> list[str]:
         """Breadth-first path (excluding ``start``) to the nearest node with an untravelled edge."""
-        parent = {start: None}
+        parent: dict[str, str] = {}  # every node reached, but the start, from where
         queue = deque([start])
         while queue:
             n = queue.popleft()
@@ -80,7 +80,7 @@ class RouteFollower:
                     n = parent[n]
                 return path[::-1]
             for m in self.adjacency[n]:
-                if m not in parent:
+                if m != start and m not in parent:
                     parent[m] = n
                     queue.append(m)
         return []

@@ -37,7 +37,7 @@ class TrajectoryImportError(InputError):
 
 def _read_rows(path: Path, columns: int, what: str) -> np.ndarray:
     text = read_text(path, TrajectoryImportError)
-    rows = []
+    rows: list[list[float]] = []
     for number, line in enumerate(text.splitlines(), start=1):
         line = line.split("#", 1)[0].strip()
         if not line:
@@ -83,7 +83,7 @@ def read_labels(path) -> np.ndarray:
     header = [h.strip() for h in lines[0].split(",")] if lines else []
     if header != ["t", "scene_id"]:
         raise TrajectoryImportError(f"{path}: line 1: expected the header 't,scene_id', got {','.join(header)!r}")
-    rows = []
+    rows: list[tuple[float, int]] = []
     for number, line in enumerate(lines[1:], start=2):
         if not line.strip():
             continue
@@ -165,6 +165,8 @@ def assemble_log(
         if gt is None:
             raise error(gt_missing)
         return labelled_log(t, dt, v, w, gt[:, 0], gt[:, 1], gt[:, 2], synthesise, seed)
+    if labels is None:
+        raise error("neither place labels nor scene numbers to synthesise")
     age = 2.0 * float(np.median(dt)) if label_max_age is None else float(label_max_age)
     scene = labels_at(labels, t, age, slack=0.5 * float(np.median(dt)))
     if gt is None:

@@ -11,6 +11,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -134,7 +135,7 @@ class _Reader:
     def __init__(self, path, table: dict, prefix: str):
         self.path, self.table, self.prefix = path, table, prefix
 
-    def fail(self, key: str, problem: str):
+    def fail(self, key: str, problem: str) -> NoReturn:
         raise WorldFileError(self.path, f"{self.prefix}{key}", problem)
 
     def check_keys(self, allowed):
