@@ -49,7 +49,7 @@ import os
 import uuid
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 import pyarrow as pa
@@ -133,7 +133,27 @@ class _SegmentBuffer:
         self.n = 0
 
 
-class Recorder:
+class _ClosedOnSuccess:
+    """Context manager: ``close()`` when the block succeeds, ``abort()`` on an error (or Ctrl-C),
+    so a failing run leaves no half-written recording behind."""
+
+    def close(self) -> Path:
+        raise NotImplementedError
+
+    def abort(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+class Recorder(_ClosedOnSuccess):
     """Writes ``recording.rrd`` for one run; feed it every tick with :meth:`log_tick`.
 
     Parameters
@@ -416,17 +436,8 @@ class Recorder:
             self.rec.disconnect()
             Path(self._tmp).unlink(missing_ok=True)
 
-    def __enter__(self) -> Recorder:
-        return self
 
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
-
-
-class StreamRecorder:
+class StreamRecorder(_ClosedOnSuccess):
     """A :class:`Recorder` fed from an observation log, for the runner's per-tick callback.
 
     ``on_tick(k, ratslam, gtsam)`` logs tick k with the log's time, ground truth (if any),
@@ -459,16 +470,6 @@ class StreamRecorder:
     def abort(self) -> None:
         """Stop recording and delete the partial file (see :meth:`Recorder.abort`)."""
         self.recorder.abort()
-
-    def __enter__(self) -> StreamRecorder:
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        # an error (or Ctrl-C) inside the block leaves no half-written recording behind
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
 
 
 def recorder_factory(run_dir, world, log, ratslam_config, odometry, **options) -> StreamRecorder:
