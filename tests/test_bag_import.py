@@ -2,9 +2,6 @@
 rosbags' own writer is imported, matches the run it was written from, replays end to end through
 the CLI, and a bag without the topic or with a topic of the wrong type fails in one line."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
@@ -14,15 +11,12 @@ from rosbags.rosbag2 import Writer
 from rosbags.typesys import Stores, get_typestore
 
 from harness.runner import dead_reckon
+from tests.helpers import cli
 from worlds import simulate
 from worlds.bag_import import BagImportError, import_bag
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
-
-
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True)
 
 
 def _header(t):
@@ -101,7 +95,7 @@ def test_bag_odometry_ground_truth_and_labels(bag):
 def test_bad_topics_are_one_line_and_write_nothing(bag, tmp_path, args, expected):
     path, _ = bag
     out = tmp_path / "log.csv"
-    r = _cli("import", "rosbag", str(path), *args, "--out", str(out))
+    r = cli("import", "rosbag", str(path), *args, "--out", str(out))
     assert r.returncode == 2 and expected in r.stderr and str(path) in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
     assert not out.exists()
@@ -112,10 +106,10 @@ def test_not_a_bag(tmp_path):
         import_bag(tmp_path / "missing", "/odom", label_topic="/place")
 
 
-def test_bag_imported_and_replayed_through_the_cli(bag, tmp_path):
+def test_bag_imported_and_replayed_through_thecli(bag, tmp_path):
     path, _ = bag
     out = tmp_path / "log.csv"
-    r = _cli(
+    r = cli(
         "import",
         "rosbag",
         str(path),
@@ -129,6 +123,6 @@ def test_bag_imported_and_replayed_through_the_cli(bag, tmp_path):
         str(out),
     )
     assert r.returncode == 0, r.stderr
-    r = _cli("replay", str(out), "--out", str(tmp_path / "run"), "--quiet", "--no-recording")
+    r = cli("replay", str(out), "--out", str(tmp_path / "run"), "--quiet", "--no-recording")
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "run" / "metrics.json").is_file()

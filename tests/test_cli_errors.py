@@ -1,12 +1,10 @@
 """One base for user-facing errors: the CLI reports an ``InputError`` as one line (exit 2) and
 lets anything else, a bug, raise with its traceback."""
 
-import subprocess
-import sys
-
 import pytest
 
 import harness.cli as cli
+from tests.helpers import cli as run_cli
 from worlds import InputError
 
 
@@ -70,10 +68,6 @@ def test_other_exceptions_are_bugs_and_raise(error, monkeypatch):
         cli.main(["list"])
 
 
-def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True, cwd=cwd)
-
-
 @pytest.mark.parametrize(
     "args, expected",
     [
@@ -94,7 +88,7 @@ def test_bad_inputs_are_one_line(tmp_path, args, expected):
     (tmp_path / "run" / "metrics.json").write_text("{")
     (tmp_path / "run" / "maps.npz").write_bytes(b"")
     paths = {"bad_config": tmp_path / "bad.toml", "bad_log": tmp_path / "bad.csv", "bad_run": tmp_path / "run"}
-    r = _cli(*(a.format(out=tmp_path / "out", **paths) for a in args), cwd=tmp_path)
+    r = run_cli(*(a.format(out=tmp_path / "out", **paths) for a in args), cwd=tmp_path)
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and expected in lines[0], r.stderr

@@ -2,11 +2,11 @@
 contracts), and their one-line errors that leave nothing half-written."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+
+from tests.helpers import cli
 
 RUN_DIR_FILES = (
     "recording.rrd",
@@ -19,13 +19,9 @@ RUN_DIR_FILES = (
 )
 
 
-def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True, cwd=cwd)
-
-
 def test_run_a_figure_writes_the_run_directory_and_says_where_the_recording_is(tmp_path):
     out = tmp_path / "fig7"
-    r = _cli("run", "fig7", "--out", str(out), "--duration", "60", "--quiet")
+    r = cli("run", "fig7", "--out", str(out), "--duration", "60", "--quiet")
     assert r.returncode == 0, r.stderr
     for name in RUN_DIR_FILES:
         assert (out / name).is_file(), name
@@ -37,14 +33,14 @@ def test_run_a_figure_writes_the_run_directory_and_says_where_the_recording_is(t
 
 def test_replay_a_log_then_rebuild_its_report(tmp_path):
     log = tmp_path / "log.csv"
-    assert _cli("simulate", "small_loop", "--out", str(log), "--duration", "60", "--quiet").returncode == 0
+    assert cli("simulate", "small_loop", "--out", str(log), "--duration", "60", "--quiet").returncode == 0
     out = tmp_path / "replay"
-    r = _cli("replay", str(log), "--out", str(out), "--quiet")
+    r = cli("replay", str(log), "--out", str(out), "--quiet")
     assert r.returncode == 0, r.stderr
     for name in RUN_DIR_FILES:
         assert (out / name).is_file(), name
     (out / "report.md").unlink()
-    r = _cli("report", str(out))
+    r = cli("report", str(out))
     assert r.returncode == 0, r.stderr
     assert (out / "report.md").read_text().startswith("# replay")
 
@@ -60,7 +56,7 @@ def test_replay_a_log_then_rebuild_its_report(tmp_path):
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, expected):
     args = tuple(str(tmp_path / a) if a in ("OUT", "no_such_log.csv", "no_such_dir") else a for a in args)
-    r = _cli(*args, cwd=tmp_path)
+    r = cli(*args, cwd=tmp_path)
     assert r.returncode == 2
     assert expected in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert not (tmp_path / "OUT").exists() and not (tmp_path / "reports").exists()
@@ -79,7 +75,7 @@ def test_same_seed_same_metrics_bit_for_bit(tmp_path):
     """Determinism: two runs of a figure with one seed give identical metrics and trajectories."""
     outs = [tmp_path / name for name in ("a", "b")]
     for out in outs:
-        r = _cli("run", "fig8", "--out", str(out), "--duration", "120", "--seed", "3", "--quiet")
+        r = cli("run", "fig8", "--out", str(out), "--duration", "120", "--seed", "3", "--quiet")
         assert r.returncode == 0, r.stderr
     a, b = (json.loads((out / "metrics.json").read_text()) for out in outs)
     assert _without_timing(a) == _without_timing(b)
@@ -92,11 +88,11 @@ def test_import_real_odometry_then_replay_it(tmp_path):
     """A real vehicle's log (CMU Plaza 1 wheel odometry, shipped with gtsam) imported to the
     observation-log contract and replayed through both systems, end to end."""
     log = tmp_path / "plaza1.csv"
-    r = _cli("import", "plaza", "plaza1", "--out", str(log), "--duration", "200")
+    r = cli("import", "plaza", "plaza1", "--out", str(log), "--duration", "200")
     assert r.returncode == 0, r.stderr
     assert log.read_text().splitlines()[0] == "t,dt,v_trans,v_rot,scene_id,gt_x,gt_y,gt_theta,false_positive"
     out = tmp_path / "replay"
-    r = _cli("replay", str(log), "--out", str(out), "--quiet", "--no-recording")
+    r = cli("replay", str(log), "--out", str(out), "--quiet", "--no-recording")
     assert r.returncode == 0, r.stderr
     m = json.loads((out / "metrics.json").read_text())["variants"]["replay"]
     assert m["ticks"] == len(log.read_text().splitlines()) - 1

@@ -1,20 +1,14 @@
 """``ratslam-harness simulate`` and ``list``: outputs, and one-line errors that write nothing."""
 
-import subprocess
-import sys
-
 import pytest
 
+from tests.helpers import cli
 from worlds import ObservationLog
-
-
-def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
 def test_simulate_writes_log_and_png(tmp_path):
     out = tmp_path / "run" / "log.csv"
-    r = _cli(
+    r = cli(
         "simulate", "small_loop", "--out", str(out), "--duration", "60", "--seed", "3", "--bias", "1.5", "--fp", "0.01"
     )
     assert r.returncode == 0, r.stderr
@@ -26,7 +20,7 @@ def test_simulate_writes_log_and_png(tmp_path):
 
 
 def test_list_names_the_worlds():
-    r = _cli("list")
+    r = cli("list")
     assert r.returncode == 0
     for name in ("small_loop", "office_floor", "full_floor", "open_plan"):
         assert name in r.stdout
@@ -51,7 +45,7 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, expected):
         "[robot]\nspeed = -1.0\n"
     )
     out = tmp_path / "out" / "log.csv"
-    r = _cli(*[a.format(out=out, bad_world=bad_world) for a in args])
+    r = cli(*[a.format(out=out, bad_world=bad_world) for a in args])
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and expected in lines[0], r.stderr

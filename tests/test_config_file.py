@@ -2,18 +2,13 @@
 ``config.toml`` reproducing it bit for bit (the run-directory and CLI contracts)."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 
 from baselines import BackendConfig, KeyframeConfig, PoseGraphConfig, YawBiasConfig
 from harness.config_file import ConfigFileError, config_toml, read_config_file
 from ratslam import ExperienceMapConfig, PoseCellConfig, RatSLAMConfig
-
-
-def _cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True, cwd=cwd)
+from tests.helpers import cli
 
 
 def test_effective_config_round_trips_exactly(tmp_path):
@@ -83,11 +78,11 @@ def test_bad_config_is_one_line_naming_file_table_key(tmp_path, text, expected):
 
 def test_cli_bad_config_exits_2_and_writes_nothing(tmp_path):
     log = tmp_path / "log.csv"
-    assert _cli("simulate", "small_loop", "--out", str(log), "--duration", "20", "--quiet").returncode == 0
+    assert cli("simulate", "small_loop", "--out", str(log), "--duration", "20", "--quiet").returncode == 0
     bad = tmp_path / "bad.toml"
     bad.write_text("[gtsam.keyframes]\ndistanse_m = 1.0\n")
     for args in (("replay", str(log), "--out", str(tmp_path / "OUT")), ("run", "fig7", "--out", str(tmp_path / "OUT"))):
-        r = _cli(*args, "--config", str(bad), "--quiet", "--no-recording")
+        r = cli(*args, "--config", str(bad), "--quiet", "--no-recording")
         assert r.returncode == 2 and "[gtsam.keyframes] distanse_m: unknown key" in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "OUT").exists()
@@ -103,19 +98,17 @@ def test_a_runs_config_toml_reproduces_it_bit_for_bit(tmp_path):
     """Contract: ``replay LOG --config RUN/config.toml`` reproduces that run's metrics and
     trajectories exactly (here with non-default values in both tables)."""
     log = tmp_path / "log.csv"
-    assert _cli("simulate", "small_loop", "--out", str(log), "--duration", "120", "--quiet").returncode == 0
+    assert cli("simulate", "small_loop", "--out", str(log), "--duration", "120", "--quiet").returncode == 0
     first = tmp_path / "first.toml"
     first.write_text(
         '[ratslam.experience_map]\nr_inf_cells = 2.5\nenergy = "sum"\n[gtsam.keyframes]\ndistance_m = 0.4\n'
     )
     a, b = tmp_path / "a", tmp_path / "b"
-    assert (
-        _cli("replay", str(log), "--out", str(a), "--config", str(first), "--quiet", "--no-recording").returncode == 0
-    )
+    assert cli("replay", str(log), "--out", str(a), "--config", str(first), "--quiet", "--no-recording").returncode == 0
     text = (a / "config.toml").read_text()
     assert "[ratslam.experience_map]\nview_confirm_ticks = 2\n" in text and "r_inf_cells = 2.5" in text
     assert 'energy = "sum"' in text and "[gtsam.keyframes]\ndistance_m = 0.4\n" in text
-    r = _cli("replay", str(log), "--out", str(b), "--config", str(a / "config.toml"), "--quiet", "--no-recording")
+    r = cli("replay", str(log), "--out", str(b), "--config", str(a / "config.toml"), "--quiet", "--no-recording")
     assert r.returncode == 0, r.stderr
     ma, mb = (json.loads((d / "metrics.json").read_text()) for d in (a, b))
     assert _without_machine(ma) == _without_machine(mb)
@@ -123,5 +116,5 @@ def test_a_runs_config_toml_reproduces_it_bit_for_bit(tmp_path):
         assert (a / "trajectories" / tum).read_bytes() == (b / "trajectories" / tum).read_bytes()
     # and the configuration did take effect (the default differs)
     c = tmp_path / "c"
-    assert _cli("replay", str(log), "--out", str(c), "--quiet", "--no-recording").returncode == 0
+    assert cli("replay", str(log), "--out", str(c), "--quiet", "--no-recording").returncode == 0
     assert (c / "trajectories" / "gtsam.tum").read_bytes() != (a / "trajectories" / "gtsam.tum").read_bytes()

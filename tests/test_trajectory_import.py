@@ -1,20 +1,14 @@
 """TUM trajectories + place labels as observation logs (your own data): the import inverts the
 odometry it is given, holds labels to their ticks, and rejects bad files in one line."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
 from harness.runner import dead_reckon
+from tests.helpers import cli
 from worlds import simulate
 from worlds.files import write_tum
 from worlds.trajectory_import import TrajectoryImportError, import_tum, labels_at
-
-
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True)
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +70,7 @@ def test_bad_files_are_one_line_and_write_nothing(recorded, tmp_path, name, text
     bad.write_text(text)
     odom, labels = (str(d / "odom.tum"), str(bad)) if name.endswith(".csv") else (str(bad), str(d / "labels.csv"))
     out = tmp_path / "log.csv"
-    r = _cli("import", "tum", odom, "--labels", labels, "--out", str(out))
+    r = cli("import", "tum", odom, "--labels", labels, "--out", str(out))
     assert r.returncode == 2 and expected in r.stderr and str(bad) in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
     assert not out.exists()
@@ -85,7 +79,7 @@ def test_bad_files_are_one_line_and_write_nothing(recorded, tmp_path, name, text
 def test_imported_log_replays_end_to_end(recorded, tmp_path):
     d, _ = recorded
     out = tmp_path / "log.csv"
-    r = _cli(
+    r = cli(
         "import",
         "tum",
         str(d / "odom.tum"),
@@ -97,6 +91,6 @@ def test_imported_log_replays_end_to_end(recorded, tmp_path):
         str(out),
     )
     assert r.returncode == 0, r.stderr
-    r = _cli("replay", str(out), "--out", str(tmp_path / "run"), "--quiet", "--no-recording")
+    r = cli("replay", str(out), "--out", str(tmp_path / "run"), "--quiet", "--no-recording")
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "run" / "metrics.json").is_file()
