@@ -37,6 +37,14 @@ def test_turn_error_is_a_heading_error_per_turn():
     assert math.isclose(math.degrees(wm.sum() * DT - 2 * math.pi), 1.8, rel_tol=1e-9)
 
 
+def test_drift_is_a_heading_error_per_metre_driven():
+    """Unequal wheel radii: 0.1 deg/m over 30 m of straight driving is 3 deg of heading."""
+    n = 700
+    v = np.full(n, 30.0 / (n * DT))
+    _, wm = _measure(dataclasses.replace(QUIET, drift_deg_per_m=0.1), v, np.zeros(n))
+    assert math.isclose(math.degrees(wm.sum() * DT), 3.0, rel_tol=1e-9)
+
+
 def test_slip_episodes_add_distance_and_a_spurious_turn_only_while_slipping():
     spec = dataclasses.replace(QUIET, slip_rate=0.05, slip_duration=2.0, slip_fraction=0.2)
     n = 7 * 600

@@ -50,6 +50,7 @@ class OdometrySpec:
     noise_rot: float = 0.01  # rad/s, std of Gaussian noise on v_rot per tick
     scale_error: float = 0.0  # fraction: distances reported 1 + scale_error times too long
     turn_scale_error: float = 0.0  # fraction: turns reported 1 + turn_scale_error times too large
+    drift_deg_per_m: float = 0.0  # heading drift per metre driven (unequal wheel radii)
     slip_rate: float = 0.0  # slip episodes per second
     slip_duration: float = 1.0  # s per slip episode
     slip_fraction: float = 0.2  # the slipping wheel's over-report, as a fraction of the speed
@@ -280,6 +281,7 @@ def _parse(path, raw: dict) -> World:
         noise_rot=odo_t.number("noise_rot", OdometrySpec.noise_rot, minimum=0.0),
         scale_error=odo_t.number("scale_error", OdometrySpec.scale_error, minimum=-0.5, maximum=0.5),
         turn_scale_error=odo_t.number("turn_scale_error", OdometrySpec.turn_scale_error, minimum=-0.5, maximum=0.5),
+        drift_deg_per_m=odo_t.number("drift_deg_per_m", OdometrySpec.drift_deg_per_m, minimum=-10.0, maximum=10.0),
         slip_rate=odo_t.number("slip_rate", OdometrySpec.slip_rate, minimum=0.0),
         slip_duration=odo_t.number("slip_duration", OdometrySpec.slip_duration, positive=True),
         slip_fraction=odo_t.number("slip_fraction", OdometrySpec.slip_fraction, minimum=0.0, maximum=1.0),
