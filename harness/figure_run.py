@@ -25,6 +25,7 @@ from baselines import PoseGraphConfig, YawBiasConfig
 from ratslam import PoseCellConfig, RatSLAMConfig
 from worlds import ObservationLog, World, load_world, simulate
 from worlds.files import atomic_open, write_tum
+from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
 from .config_file import ConfigOverrides, write_config_toml
 from .evaluate import CLOSURE_TRUE_DISTANCE, evaluate_stream
@@ -106,10 +107,15 @@ def _configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLA
 
 
 def _variant_world(world: World | None, variant: Variant) -> World | None:
-    """The world a variant runs in: as loaded, or with its look-alike regions showing their own scenes."""
-    if world is None or variant.lookalikes or not world.scenes.lookalikes:
+    """The world a variant runs in: as loaded, with its look-alike regions showing their own scenes
+    if the variant says so, and with the Plaza-calibrated wheel-odometry errors if it asks for them."""
+    if world is None:
         return world
-    return dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+    if not variant.lookalikes and world.scenes.lookalikes:
+        world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+    if variant.wheel_errors:
+        world = dataclasses.replace(world, odometry=dataclasses.replace(world.odometry, **PLAZA_WHEEL_ERRORS))
+    return world
 
 
 def _scene_cell_size(fig: Figure, world: World | None) -> float:
@@ -227,6 +233,7 @@ def _run_variant(
             gtsam=dataclasses.asdict(pg_cfg),
             odometric_bias_deg_s=variant.odometric_bias,
             pi_bias_deg_s=variant.pi_bias,
+            wheel_errors=dict(PLAZA_WHEEL_ERRORS) if variant.wheel_errors else None,
         ),
         derived_scale=derivation or None,
     )

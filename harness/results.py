@@ -142,6 +142,7 @@ class VariantConfig:
     gtsam: dict[str, Any]
     odometric_bias_deg_s: float | None = None
     pi_bias_deg_s: float | None = None
+    wheel_errors: dict[str, float] | None = None  # systematic odometry errors added to the world's
 
     def to_json(self) -> dict[str, Any]:
         return _omit_none(dataclasses.asdict(self))

@@ -31,6 +31,10 @@ import numpy as np
 
 from .world import OdometrySpec
 
+# The worse of the two CMU Plaza vehicles' calibrated errors, per kind (see above): what a figure's
+# "wheel errors" variant adds to a world's odometry.
+PLAZA_WHEEL_ERRORS = {"scale_error": 0.0008, "turn_scale_error": -0.0129, "drift_deg_per_m": -0.107}
+
 
 def measured_odometry(
     v_true: np.ndarray,
