@@ -95,6 +95,8 @@ def screenshot(
         why = next((ln for ln in lines if "panicked" in ln or "No graphics adapter" in ln), "")
         return ScreenshotError(f"{rrd_path.name}: {what}" + (f" ({why})" if why else ""))
 
+    # shots go to a temporary name next to the PNG, moved into place only once the view settled
+    shot_path = png_path.with_name(f".{png_path.stem}.partial{png_path.suffix}")
     try:
         client = None
         while client is None:
@@ -132,19 +134,23 @@ def screenshot(
         previous, shots = None, 0
         while True:
             time.sleep(settle)
-            client.save_screenshot(str(png_path))
+            client.save_screenshot(str(shot_path))
             shots += 1
-            current = png_path.read_bytes()
+            current = shot_path.read_bytes()
             if current == previous:
                 break
             if time.monotonic() > deadline:
                 raise failed(f"the view did not settle in time ({shots} screenshots)")
             previous = current
         views = {v.name: [f"{r.severity}: {r.summary}" for r in v.reports] for v in client.get_state().views}
-        if proc.poll() is not None or not png_path.exists():
+        if proc.poll() is not None or not shot_path.exists():
             raise failed("viewer crashed while drawing")
+        os.replace(shot_path, png_path)
         return {"png": png_path, "tick": end, "views": views}
+    except TimeoutError:  # the viewer did not answer a control request
+        raise failed("viewer did not answer in time") from None
     finally:
+        shot_path.unlink(missing_ok=True)
         _stop(proc)
         log.close()
 
