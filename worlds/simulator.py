@@ -56,6 +56,14 @@ class Simulator:
         body.velocity = (v * math.cos(heading), v * math.sin(heading))
         body.angular_velocity = w
 
+    def step_command(self, v_trans: float, v_rot: float) -> tuple[float, float, float]:
+        """One physics tick under a commanded (v_trans m/s, v_rot rad/s) instead of the route
+        follower's (closed-loop driving, see :mod:`worlds.drive`); returns the true pose after it."""
+        self._command = (float(v_trans), float(v_rot))
+        self.space.step(self.world.dt)
+        x, y = self.body.position
+        return float(x), float(y), float(self.body.angle)
+
     def run(self, n_ticks: int, progress: Callable[[int, int], None] | None = None) -> np.ndarray:
         """Drive ``n_ticks`` ticks; return ground-truth poses (n_ticks + 1, 3), row 0 the start."""
         dt = self.world.dt

@@ -1,0 +1,181 @@
+"""A route-following controller that sees only a SLAM system's map: its pose, its plans, its nodes.
+
+The controller is built from a navigator (``ratslam.navigation.ExperienceMapNavigator`` or
+``baselines.navigation.PoseGraphNavigator``) and nothing else: no world, no simulator, no ground
+truth. Each tick it reads the SLAM's pose and the current map positions of its route's nodes
+(the map correction keeps moving them) and returns a velocity command.
+
+Following. The route is the planned nodes followed by the goal point itself. Progress is an index
+into it that only moves forward: it jumps to the furthest point within ``reach_m`` of the pose among
+those at most ``window_m`` further along the route (so a route that starts behind the robot, at a
+stale current experience or at keyframes just driven, is skipped rather than driven back). The
+robot steers for the point after it, turning on the spot beyond 60 degrees of heading error, like
+the exploring robot. Arrival: progress at the goal point and the pose within ``arrive_m`` of it.
+
+Replanning (counted). The route is planned again when the pose is more than ``replan_m`` from the
+route ahead (the robot, or the map's idea of where it is, left the route), or when the distance
+still to go has not shrunk by ``stall_progress_m`` in ``stall_s`` seconds (stuck, e.g. against a
+door frame the map puts a little off). At most one replan per ``replan_interval_s``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+
+class RouteLike(Protocol):
+    status: str
+    nodes: np.ndarray
+
+    @property
+    def found(self) -> bool: ...
+
+
+class NavigableMap(Protocol):
+    """What the controller may read of a SLAM system (both navigators provide it)."""
+
+    name: str
+
+    @property
+    def pose(self) -> tuple[float, float, float]: ...
+
+    def plan(self, goal_xy) -> RouteLike: ...
+
+    def node_xy(self, nodes: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class ControllerParams:
+    """Driving and route-following parameters (the robot's own, not the world's ground truth)."""
+
+    speed: float = 0.3  # m/s cruise
+    max_turn_rate_deg: float = 60.0  # deg/s
+    turn_gain: float = 2.5  # rad/s per rad of heading error
+    lookahead_m: float = 0.5  # pure pursuit: steer for the route point this far ahead
+    arrive_m: float = 0.2  # at the goal point: arrived
+    window_m: float = 5.0  # progress may skip ahead this far along the route
+    skip_tolerance_m: float = 0.25  # ... to a point no more than this farther than the nearest
+    smooth_m: float = 0.75  # route points averaged over this much route either side (0: off)
+    replan_m: float = 1.0  # off the route ahead by more than this: replan
+    stall_s: float = 20.0  # no progress for this long: replan
+    stall_progress_m: float = 0.3
+    replan_interval_s: float = 5.0
+
+
+class RouteController:
+    """Drives to a goal point in the SLAM's map frame, given only the SLAM's navigator."""
+
+    def __init__(self, nav: NavigableMap, params: ControllerParams | None = None):
+        self.nav = nav
+        self.params = params if params is not None else ControllerParams()
+        self.goal = (0.0, 0.0)
+        self.status = "idle"
+        self.replans = 0
+        self.arrived = False
+        self._nodes = np.zeros(0, dtype=np.int64)
+        self._s = -1.0  # progress along the route (m; -1: not placed on the route yet)
+        self._t = 0.0
+        self._best, self._t_best, self._t_plan = math.inf, 0.0, -math.inf
+
+    def set_goal(self, goal_xy) -> str:
+        """Plan to ``goal_xy`` (map frame); returns the plan's status ("ok" or why not)."""
+        self.goal = (float(goal_xy[0]), float(goal_xy[1]))
+        self.arrived = False
+        self.replans = 0
+        self._t = 0.0
+        return self._plan()
+
+    def _plan(self) -> str:
+        route = self.nav.plan(self.goal)
+        self.status = route.status
+        self._nodes = np.asarray(route.nodes, dtype=np.int64) if route.found else np.zeros(0, dtype=np.int64)
+        self._s = -1.0
+        self._best, self._t_best, self._t_plan = math.inf, self._t, self._t
+        return self.status
+
+    def _replan(self) -> None:
+        self.replans += 1
+        self._plan()
+
+    @property
+    def route_nodes(self) -> np.ndarray:
+        """The nodes of the route being followed."""
+        return self._nodes
+
+    def command(self, dt: float) -> tuple[float, float]:
+        """Velocity command (m/s, rad/s) for the next tick of ``dt`` seconds; (0, 0) once arrived
+        or without a route."""
+        self._t += dt
+        if self.arrived or self.status != "ok":
+            return 0.0, 0.0
+        p = self.params
+        x, y, th = self.nav.pose
+        # the route as it lies in the map now: its nodes, then the goal point
+        pts = np.vstack((self.nav.node_xy(self._nodes), [self.goal]))
+        along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
+        if p.smooth_m > 0 and len(pts) > 2:
+            pts = _smooth(pts, along, p.smooth_m)
+            along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
+        total = float(along[-1])
+        s_proj, off = _project_on_route((x, y), pts, along, max(self._s, 0.0), p.window_m, p.skip_tolerance_m)
+        self._s = max(self._s, s_proj)
+        d_goal = math.hypot(self.goal[0] - x, self.goal[1] - y)
+        if d_goal < p.arrive_m:
+            self.arrived = True
+            return 0.0, 0.0
+        to_go = total - self._s + off
+        if to_go < self._best - p.stall_progress_m:
+            self._best, self._t_best = to_go, self._t
+        if self._t - self._t_plan >= p.replan_interval_s and (off > p.replan_m or self._t - self._t_best > p.stall_s):
+            self._replan()
+            if self.status != "ok":
+                return 0.0, 0.0
+            return self.command(0.0)
+        s_target = self._s + p.lookahead_m
+        target = self.goal if s_target >= total or d_goal < p.lookahead_m else _point_at(pts, along, s_target)
+        err = (math.atan2(target[1] - y, target[0] - x) - th + math.pi) % (2.0 * math.pi) - math.pi
+        max_turn = math.radians(p.max_turn_rate_deg)
+        v_rot = max(-max_turn, min(max_turn, p.turn_gain * err))
+        v_trans = p.speed * max(0.0, 1.0 - abs(err) / (math.pi / 3))
+        return v_trans, v_rot
+
+
+def _project_on_route(xy, pts: np.ndarray, along: np.ndarray, s0: float, window: float, tolerance: float):
+    """Where the robot is along the route: projections of ``xy`` on the segments from progress
+    ``s0`` up to ``window`` metres further; of those no more than ``tolerance`` farther than the
+    nearest, the one furthest along. Returns (progress m, distance to the route m)."""
+    q = np.asarray(xy, dtype=float)
+    if len(pts) == 1:
+        return 0.0, float(np.hypot(*(pts[0] - q)))
+    s0 = min(s0, float(along[-1]))  # the map correction can shorten the route under the robot
+    a, b = pts[:-1], pts[1:]
+    ab = b - a
+    length = along[1:] - along[:-1]
+    u = np.clip(np.einsum("ij,ij->i", q - a, ab) / np.maximum(length**2, 1e-12), 0.0, 1.0)
+    s = along[:-1] + u * length
+    c = a + u[:, None] * ab
+    dist = np.hypot(c[:, 0] - q[0], c[:, 1] - q[1])
+    ok = (along[1:] >= s0) & (along[:-1] <= s0 + window)
+    s, dist = np.maximum(s[ok], s0), dist[ok]
+    best = dist <= dist.min() + tolerance
+    return float(s[best].max()), float(dist.min())
+
+
+def _point_at(pts: np.ndarray, along: np.ndarray, s: float) -> np.ndarray:
+    """The route point ``s`` metres along the polyline through ``pts``."""
+    i = int(np.clip(np.searchsorted(along, s, side="right") - 1, 0, len(pts) - 2))
+    seg = max(along[i + 1] - along[i], 1e-12)
+    return pts[i] + (pts[i + 1] - pts[i]) * min(max((s - along[i]) / seg, 0.0), 1.0)
+
+
+def _smooth(pts: np.ndarray, along: np.ndarray, half: float) -> np.ndarray:
+    """Each inner route point replaced by the mean of the points within ``half`` metres of route
+    either side (the ends stay): one misplaced node no longer kinks the path the robot drives."""
+    near = np.abs(along[:, None] - along[None, :]) <= half
+    out = (near @ pts) / near.sum(axis=1)[:, None]
+    out[0], out[-1] = pts[0], pts[-1]
+    return out

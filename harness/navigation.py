@@ -1,0 +1,321 @@
+"""Closed-loop goal navigation on RatSLAM's experience map and on the GTSAM pose graph.
+
+Exploration: the world's usual route stream (:func:`worlds.simulate`) for ``exploration_s``
+seconds is fed tick by tick to RatSLAM and to the pose graph. Then ``n_goals`` goals, drawn with
+the seed among places the robot visited while exploring (successive goals at least 3 m apart),
+are driven to one after the other, once navigating on each system's map, both starting from the
+same exploration stream and the robot's final pose.
+
+How a goal reaches a SLAM system. A user would click on the map where they want the robot to go.
+The click is simulated without ground truth entering the SLAM: for a goal drawn at exploration
+tick ``k`` (true place ``gt[k]``), the goal point is where the system itself put the robot at tick
+``k``, as its map places it now. At tick ``k`` the system's pose is recorded relative to the node it
+was at (RatSLAM: the current experience, created or last re-entered nearest before ``k``; the
+pose graph: the latest keyframe); when the goal is issued, that relative pose is composed with the
+node's current map pose (loop closures and the map correction have moved it since). For a place
+seen for the first time at ``k`` this is the map pose of the experience/keyframe created nearest
+in time; for a revisit it is the node the system recognised the place as.
+
+Driving. The controller (:mod:`harness.nav_controller`) is given only the system's navigator (its
+pose, its plans, its nodes' map positions); it drives the pymunk robot (:class:`worlds.drive.Drive`,
+walls still block) and the system keeps stepping on the new observations. Replanning rule: see the
+controller. A goal ends when the controller declares arrival (its pose within ``arrive_m`` of the
+goal point) or at the timeout, ``timeout_factor`` x the shortest route's time + ``timeout_extra_s``.
+
+Judging (ground truth, metrics only). Reached = the controller declared arrival and the robot's
+true position is within ``success_radius`` m of the goal's true place; an arrival farther away is
+"wrong place". Time ratio = time to arrival over the shortest route's time: the shortest path on
+the world's route network from the robot's true position to the goal's at the robot's cruise speed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from baselines import PoseGraphConfig, PoseGraphSLAM
+from baselines.navigation import PoseGraphNavigator
+from ratslam import RatSLAM, RatSLAMConfig
+from ratslam.navigation import ExperienceMapNavigator
+from worlds import World, load_world, simulate
+from worlds.drive import Drive
+
+from .nav_controller import ControllerParams, RouteController
+from .nav_goals import draw_goal_ticks, route_network_distance
+
+SYSTEMS = ("ratslam", "gtsam")
+GOAL_SEPARATION_M = 3.0
+FIRST_GOAL_S = 30.0  # goals are drawn from exploration ticks after this (the maps exist by then)
+
+
+@dataclass(frozen=True)
+class GoalOutcome:
+    """One goal driven on one system's map."""
+
+    index: int
+    tick: int  # exploration tick whose place is the goal
+    true_goal: tuple[float, float]
+    true_start: tuple[float, float]
+    map_goal: tuple[float, float]  # the goal point handed to the system (its map frame)
+    status: str  # reached, wrong place, timeout, or the plan's failure
+    time_s: float  # until arrival or the end (timeout / no plan)
+    shortest_time_s: float  # route-network shortest path at cruise speed
+    replans: int
+    final_error_m: float  # true distance to the goal's place at the end
+
+    @property
+    def reached(self) -> bool:
+        return self.status == "reached"
+
+    @property
+    def time_ratio(self) -> float:
+        return self.time_s / self.shortest_time_s if self.reached else math.nan
+
+
+@dataclass
+class SystemNavigation:
+    """All goals on one system's map, with the summary metrics."""
+
+    system: str
+    outcomes: list[GoalOutcome]
+    trace: dict = field(default_factory=dict, repr=False)  # per-tick arrays, not written to JSON
+
+    @property
+    def success_rate(self) -> float:
+        return sum(o.reached for o in self.outcomes) / max(len(self.outcomes), 1)
+
+    @property
+    def time_ratios(self) -> np.ndarray:
+        return np.array([o.time_ratio for o in self.outcomes if o.reached])
+
+    @property
+    def median_time_ratio(self) -> float:
+        r = self.time_ratios
+        return float(np.median(r)) if len(r) else math.nan
+
+    def summary(self) -> dict:
+        r = self.time_ratios
+        statuses: dict[str, int] = {}
+        for o in self.outcomes:
+            statuses[o.status] = statuses.get(o.status, 0) + 1
+        err = np.array([o.final_error_m for o in self.outcomes if o.status in ("reached", "wrong place")])
+        return {
+            "goals": len(self.outcomes),
+            "reached": sum(o.reached for o in self.outcomes),
+            "success_rate": self.success_rate,
+            "median_time_ratio": self.median_time_ratio,
+            "p90_time_ratio": float(np.percentile(r, 90)) if len(r) else math.nan,
+            "replans_total": sum(o.replans for o in self.outcomes),
+            "goals_with_replans": sum(o.replans > 0 for o in self.outcomes),
+            "statuses": statuses,
+            "arrival_error_median_m": float(np.median(err)) if len(err) else math.nan,
+            "arrival_error_max_m": float(err.max()) if len(err) else math.nan,
+        }
+
+
+@dataclass
+class NavigationResult:
+    """A navigation experiment: its set-up and, per system, every goal's outcome."""
+
+    world: str
+    exploration_s: float
+    n_goals: int
+    seed: int
+    settings: dict
+    systems: dict[str, SystemNavigation]
+
+    def to_dict(self) -> dict:
+        return {
+            "world": self.world,
+            "exploration_s": self.exploration_s,
+            "n_goals": self.n_goals,
+            "seed": self.seed,
+            "settings": self.settings,
+            "systems": {
+                name: {
+                    "summary": s.summary(),
+                    "goals": [dataclasses.asdict(o) | {"time_ratio": o.time_ratio} for o in s.outcomes],
+                }
+                for name, s in self.systems.items()
+            },
+        }
+
+    def write_json(self, path) -> None:
+        """Write :meth:`to_dict` as JSON (NaN/inf written as null)."""
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_text(json.dumps(_finite(self.to_dict()), indent=2) + "\n")
+
+
+def _finite(x):
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite(v) for v in x]
+    return x
+
+
+def _relative(node, pose) -> tuple[float, float, float]:
+    """``pose`` expressed in the frame of ``node`` (both (x, y, θ))."""
+    c, s = math.cos(node[2]), math.sin(node[2])
+    dx, dy = pose[0] - node[0], pose[1] - node[1]
+    return c * dx + s * dy, -s * dx + c * dy, pose[2] - node[2]
+
+
+def _compose(node, rel) -> tuple[float, float]:
+    c, s = math.cos(node[2]), math.sin(node[2])
+    return node[0] + c * rel[0] - s * rel[1], node[1] + s * rel[0] + c * rel[1]
+
+
+def _navigator(system: str, slam):
+    return ExperienceMapNavigator(slam) if system == "ratslam" else PoseGraphNavigator(slam)
+
+
+def run_navigation(
+    world_name: str | World,
+    exploration_s: float,
+    n_goals: int = 50,
+    seed: int = 0,
+    *,
+    systems: tuple[str, ...] = SYSTEMS,
+    success_radius: float = 1.0,
+    goal_radius: float = 1.0,
+    lookalikes: bool = True,
+    ratslam_config: RatSLAMConfig | None = None,
+    gtsam_config: PoseGraphConfig | None = None,
+    controller: ControllerParams | None = None,
+    timeout_factor: float = 3.0,
+    timeout_extra_s: float = 60.0,
+    out: str | Path | None = None,
+    trace: bool = False,
+    progress: Callable[[str, int, int], None] | None = None,
+) -> NavigationResult:
+    """Explore ``world_name`` for ``exploration_s`` s, then drive to ``n_goals`` goals on each
+    system's map (see the module docstring). ``goal_radius``: a node within this of the goal
+    point is the goal node; ``success_radius``: judged on ground truth; ``lookalikes=False``: the
+    world's look-alike regions show their own scenes. Writes JSON to ``out`` if given;
+    ``trace`` keeps per-tick true and estimated poses; ``progress(system, done, total)``."""
+    for s in systems:
+        if s not in SYSTEMS:
+            raise ValueError(f"unknown system {s!r} (known: {', '.join(SYSTEMS)})")
+    world = load_world(world_name)
+    if not lookalikes and world.scenes.lookalikes:
+        world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+    log = simulate(world, duration=exploration_s, seed=seed)
+    gt = log.ground_truth()
+    first = min(int(FIRST_GOAL_S / world.dt), len(log) - 1)
+    goal_ticks = draw_goal_ticks(
+        gt[:, :2], n_goals, np.random.default_rng([seed, 11]), gt[-1, :2], GOAL_SEPARATION_M, first
+    )
+
+    # Exploration: both systems on the same stream; at each goal tick, remember where each
+    # system put the robot relative to the node it was at.
+    rs_config, pg_config = ratslam_config or RatSLAMConfig(), gtsam_config or PoseGraphConfig()
+    navs = {s: _navigator(s, RatSLAM(rs_config) if s == "ratslam" else PoseGraphSLAM(pg_config)) for s in systems}
+    anchors: dict[str, dict[int, tuple[int, tuple[float, float, float]]]] = {s: {} for s in systems}
+    wanted = set(goal_ticks.tolist())
+    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
+    for k, (dt, v, w, scene) in enumerate(rows):
+        for s in systems:
+            navs[s].step(dt, v, w, scene)
+            if k in wanted:
+                node = navs[s].current_node
+                rel = _relative(navs[s].node_pose(node), navs[s].pose) if node >= 0 else (0.0, 0.0, 0.0)
+                anchors[s][k] = (node, rel)
+    seen = log.scene_id[np.sort(np.unique(log.scene_id, return_index=True)[1])]
+
+    params = controller or ControllerParams(speed=world.robot.speed, max_turn_rate_deg=world.robot.max_turn_rate_deg)
+    results = {}
+    for s in systems:
+        navs[s].goal_radius = goal_radius
+        drive = Drive(world, gt[-1], seed=seed, seen_scenes=seen)
+        results[s] = _navigate(
+            s, navs[s], drive, world, gt, goal_ticks, anchors[s], params, success_radius,
+            timeout_factor, timeout_extra_s, trace, progress,
+        )  # fmt: skip
+    result = NavigationResult(
+        world=world.name,
+        exploration_s=float(exploration_s),
+        n_goals=n_goals,
+        seed=seed,
+        settings={
+            "success_radius_m": success_radius,
+            "goal_radius_m": goal_radius,
+            "lookalikes": lookalikes,
+            "goal_separation_m": GOAL_SEPARATION_M,
+            "timeout": f"{timeout_factor} x shortest route time + {timeout_extra_s} s",
+            "controller": dataclasses.asdict(params),
+            "ratslam_config": dataclasses.asdict(rs_config),
+            "gtsam_config": dataclasses.asdict(pg_config),
+        },
+        systems=results,
+    )
+    if out is not None:
+        result.write_json(out)
+    return result
+
+
+def _navigate(
+    system, nav, drive, world, gt, goal_ticks, anchors, params, success_radius, timeout_factor, timeout_extra_s, trace,
+    progress,
+) -> SystemNavigation:  # fmt: skip
+    """Drive to every goal in turn on one system's map."""
+    dt = world.dt
+    ctrl = RouteController(nav, params)
+    outcomes = []
+    tr: dict[str, list] = {"true": [], "estimate": [], "goal": []}
+    for g, k in enumerate(goal_ticks.tolist()):
+        true_goal = (float(gt[k, 0]), float(gt[k, 1]))
+        start = drive.true_pose
+        shortest = route_network_distance(world, start[:2], true_goal) / params.speed
+        node, rel = anchors[k]
+        map_goal = _compose(nav.node_pose(node), rel) if node >= 0 else (math.nan, math.nan)
+        status = ctrl.set_goal(map_goal) if node >= 0 else "no current experience"
+        limit = timeout_factor * shortest + timeout_extra_s
+        t = 0.0
+        while status == "ok" and not ctrl.arrived and t < limit:
+            v, w = ctrl.command(dt)
+            if ctrl.arrived or ctrl.status != "ok":
+                break
+            obs = drive.step(v, w)
+            nav.step(*obs)
+            t += dt
+            if trace:
+                tr["true"].append(drive.true_pose)
+                tr["estimate"].append(nav.pose)
+                tr["goal"].append(g)
+        end = drive.true_pose
+        error = math.hypot(end[0] - true_goal[0], end[1] - true_goal[1])
+        if status != "ok":
+            final = status
+        elif ctrl.status != "ok":
+            final = ctrl.status
+        elif ctrl.arrived:
+            final = "reached" if error <= success_radius else "wrong place"
+        else:
+            final = "timeout"
+        outcomes.append(
+            GoalOutcome(
+                index=g,
+                tick=k,
+                true_goal=true_goal,
+                true_start=(start[0], start[1]),
+                map_goal=(float(map_goal[0]), float(map_goal[1])),
+                status=final,
+                time_s=t,
+                shortest_time_s=shortest,
+                replans=ctrl.replans,
+                final_error_m=error,
+            )
+        )
+        if progress is not None:
+            progress(system, g + 1, len(goal_ticks))
+    arrays = {key: np.asarray(v) for key, v in tr.items()} if trace else {}
+    return SystemNavigation(system, outcomes, arrays)

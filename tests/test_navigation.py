@@ -1,0 +1,217 @@
+"""Goal navigation: quickest routes on both maps, the map-only controller, closed-loop driving.
+
+Paper (Milford, Prasser & Wyeth 2005, future work): "by incorporating time durations into the
+inter-experience link transitions, the quickest route to any location in the map can be found".
+"""
+
+import inspect
+import math
+import time
+
+import numpy as np
+import pytest
+
+import baselines.navigation as bnav
+import ratslam.navigation as rnav
+from harness.nav_controller import ControllerParams, RouteController
+from harness.nav_goals import draw_goal_ticks, route_network_distance
+from harness.navigation import run_navigation
+from ratslam import RatSLAM
+from worlds import load_world, simulate
+from worlds.drive import Drive, Observation
+from worlds.route import RouteFollower
+
+PLANNERS = [pytest.param(rnav, id="ratslam"), pytest.param(bnav, id="gtsam")]
+
+# A hand-made map: a square 0-1-2-3 (1 m sides) plus a diagonal 0-2 that is short but slow.
+SQUARE_XY = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+SQUARE_EDGES = np.array([[0, 1], [2, 1], [2, 3], [3, 0], [0, 2]])  # 2 -> 1 stored "backwards"
+SQUARE_SECONDS = np.array([3.0, 3.0, 1.0, 1.0, 10.0])
+
+
+@pytest.mark.parametrize("nav", PLANNERS)
+def test_quickest_route_weighs_time_not_hops(nav):
+    """0 -> 2: the one-hop diagonal takes 10 s, 0-1-2 takes 6 s, 0-3-2 takes 2 s: the quickest wins."""
+    route = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, SQUARE_SECONDS, 0, (1.0, 1.0), 0.5)
+    assert route.found and route.status == nav.OK
+    assert route.nodes.tolist() == [0, 3, 2]
+    assert route.time_s == pytest.approx(2.0)
+    assert np.allclose(route.waypoints, SQUARE_XY[[0, 3, 2]])
+
+
+@pytest.mark.parametrize("nav", PLANNERS)
+def test_transitions_are_driven_both_ways(nav):
+    """Links are stored i -> j; a route may drive them j -> i (here 2 -> 1 forwards and 1 -> 2 back)."""
+    slow_left = np.array([3.0, 3.0, 10.0, 10.0, 20.0])
+    there = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, slow_left, 0, (1.0, 1.0), 0.5)
+    back = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, slow_left, 2, (0.0, 0.0), 0.5)
+    assert there.nodes.tolist() == [0, 1, 2]
+    assert back.nodes.tolist() == [2, 1, 0]
+    assert there.time_s == back.time_s == pytest.approx(6.0)
+
+
+@pytest.mark.parametrize("nav", PLANNERS)
+def test_unreachable_goal_is_reported_quickly(nav):
+    """Two separate chains of 20 000 nodes: a goal on the other chain is 'unreachable', at once."""
+    n = 20_000
+    xy = np.stack((np.arange(2 * n, dtype=float), np.zeros(2 * n)), axis=1)
+    chain = np.stack((np.arange(n - 1), np.arange(1, n)), axis=1)
+    edges = np.concatenate((chain, chain + n))
+    t0 = time.perf_counter()
+    route = nav.quickest_route(xy, edges, np.ones(len(edges)), 0, (n + 5.0, 0.0), 0.5)
+    assert time.perf_counter() - t0 < 2.0
+    assert not route.found and route.status == nav.UNREACHABLE == "unreachable"
+    assert route.nodes.size == 0 and math.isinf(route.time_s)
+    assert route.goal_node == n + 5
+
+
+@pytest.mark.parametrize("nav", PLANNERS)
+def test_no_experience_near_goal(nav):
+    """A goal 2 m from the nearest place, with a 1 m radius, has no goal experience."""
+    route = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, SQUARE_SECONDS, 0, (3.0, 1.0), 1.0)
+    assert not route.found
+    assert route.status == "no experience near goal"
+    assert nav.quickest_route(SQUARE_XY, SQUARE_EDGES, SQUARE_SECONDS, 0, (3.0, 1.0), 2.5).found
+
+
+@pytest.mark.parametrize("nav", PLANNERS)
+def test_range_bearing(nav):
+    r, b = nav.range_bearing((1.0, 1.0, math.pi / 2), (0.0, 1.0))
+    assert r == pytest.approx(1.0) and b == pytest.approx(math.pi / 2)
+
+
+def test_plan_route_reads_the_experience_maps_transition_times():
+    """On RatSLAM's own experience map: the route follows the transitions' elapsed times."""
+    rs = RatSLAM()
+    em = rs.experience_map
+    for xy in SQUARE_XY:
+        em.add_experience((xy[0], xy[1], 0.0), np.zeros(3), 1, 0)
+    for (i, j), dt in zip(SQUARE_EDGES, SQUARE_SECONDS):
+        dx, dy = SQUARE_XY[j] - SQUARE_XY[i]
+        em.add_transition(int(i), int(j), dx, dy, 0.0, dt)
+    em.current = 0
+    route = rnav.plan_route(rs, (1.05, 0.95), goal_radius=0.5)
+    assert route.nodes.tolist() == [0, 3, 2] and route.time_s == pytest.approx(2.0)
+    assert rnav.plan_route(rs, (5.0, 5.0)).status == "no experience near goal"
+
+
+class _PointRobot:
+    """A navigator over a corridor of nodes 1 m apart, whose pose is exact (no SLAM, no world)."""
+
+    name = "fake"
+
+    def __init__(self, n: int = 11):
+        self.xy = np.stack((np.arange(n, dtype=float), np.zeros(n)), axis=1)
+        self.edges = np.stack((np.arange(n - 1), np.arange(1, n)), axis=1)
+        self.pose = (0.0, 0.0, 0.0)
+        self.plans = 0
+
+    def plan(self, goal_xy):
+        self.plans += 1
+        start = int(np.argmin(np.hypot(*(self.xy - self.pose[:2]).T)))
+        return rnav.quickest_route(self.xy, self.edges, np.ones(len(self.edges)), start, goal_xy, 1.0)
+
+    def node_xy(self, nodes):
+        return self.xy[nodes]
+
+    def move(self, v, w, dt):
+        x, y, th = self.pose
+        th += w * dt
+        self.pose = (x + v * dt * math.cos(th), y + v * dt * math.sin(th), th)
+
+
+def test_controller_is_given_only_the_map():
+    """By construction: the controller takes a navigator and its parameters, nothing else; the
+    navigators hold only their SLAM; observations carry no ground truth."""
+    assert list(inspect.signature(RouteController.__init__).parameters) == ["self", "nav", "params"]
+    assert list(inspect.signature(RouteController.command).parameters) == ["self", "dt"]
+    assert set(vars(rnav.ExperienceMapNavigator(RatSLAM()))) == {"slam", "goal_radius"}
+    assert Observation._fields == ("dt", "v_trans", "v_rot", "scene_id")
+
+
+def test_controller_follows_a_route_and_arrives():
+    """A point robot with an exact pose drives 8 m of corridor in about 8 m / 0.3 m/s."""
+    robot = _PointRobot()
+    ctrl = RouteController(robot, ControllerParams())
+    assert ctrl.set_goal((8.0, 0.0)) == "ok"
+    dt, t = 1 / 7, 0.0
+    while not ctrl.arrived and t < 100:
+        robot.move(*ctrl.command(dt), dt)
+        t += dt
+    assert ctrl.arrived and ctrl.replans == 0
+    assert math.hypot(robot.pose[0] - 8.0, robot.pose[1]) < 0.3
+    assert t < 1.1 * 8.0 / 0.3
+
+
+def test_controller_replans_when_off_the_route():
+    """Displaced 2 m off the corridor mid-way (a relocalisation, say), the controller replans."""
+    robot = _PointRobot()
+    ctrl = RouteController(robot, ControllerParams())
+    ctrl.set_goal((8.0, 0.0))
+    dt = 1 / 7
+    for k in range(400):
+        if k == 70:
+            robot.pose = (robot.pose[0], 2.0, robot.pose[2])
+        robot.move(*ctrl.command(dt), dt)
+        if ctrl.arrived:
+            break
+    assert ctrl.arrived and ctrl.replans >= 1 and robot.plans >= 2
+
+
+def test_controller_reports_a_failed_plan_and_stands_still():
+    robot = _PointRobot()
+    ctrl = RouteController(robot, ControllerParams())
+    assert ctrl.set_goal((5.0, 4.0)) == "no experience near goal"
+    assert ctrl.command(1 / 7) == (0.0, 0.0)
+
+
+def test_drive_reproduces_the_simulators_route_run():
+    """Driving the route follower's commands through Drive gives simulate()'s trajectory, and the
+    observed odometry is the body's motion up to the world's noise."""
+    world = load_world("small_loop")
+    log = simulate(world, duration=60.0, seed=4)
+    drive = Drive(world, seed=4)
+    follower = RouteFollower(world, np.random.default_rng(4))
+    obs = []
+    for _ in range(len(log)):
+        x, y, th = drive.true_pose
+        obs.append(drive.step(*follower.command(x, y, th, world.dt)))
+    gt_end = np.array(drive.true_pose)
+    assert np.allclose(gt_end[:2], log.ground_truth()[-1, :2], atol=1e-9)
+    v = np.array([o.v_trans for o in obs])
+    assert np.abs(v - log.v_trans).max() < 6 * world.odometry.noise_trans
+    scenes = np.array([o.scene_id for o in obs])
+    assert np.mean(scenes == log.scene_id) > 0.9  # flicker and false positives are drawn anew
+
+
+def test_drive_walls_still_block():
+    """Commanded straight into a wall for 20 s, the robot stops at it."""
+    world = load_world("small_loop")
+    drive = Drive(world, pose=(1.25, 1.25, -math.pi / 2), seed=0)
+    for _ in range(140):
+        drive.step(0.3, 0.0)
+    assert drive.true_pose[1] >= world.robot.radius - 0.01
+
+
+def test_route_network_distance_and_goal_draws():
+    world = load_world("small_loop")
+    assert route_network_distance(world, (1.25, 1.25), (5.75, 5.75)) == pytest.approx(9.0)
+    assert route_network_distance(world, (2.0, 1.25), (4.0, 1.35)) == pytest.approx(2.1)
+    xy = np.stack((np.linspace(0, 10, 101), np.zeros(101)), axis=1)
+    ticks = draw_goal_ticks(xy, 5, np.random.default_rng(0), (0.0, 0.0), 3.0)
+    assert len(ticks) == 5
+    assert np.all(np.hypot(*np.diff(np.vstack(([0.0, 0.0], xy[ticks])), axis=0).T) >= 3.0)
+
+
+def test_closed_loop_small_loop_reaches_goals(tmp_path):
+    """Explore the small loop for 3 minutes, then drive to 3 goals on each system's map in the
+    pymunk world: both reach the first goals, about as fast as the shortest route."""
+    out = tmp_path / "nav.json"
+    result = run_navigation("small_loop", 180.0, n_goals=3, seed=0, out=out)
+    assert out.exists()
+    for name in ("ratslam", "gtsam"):
+        nav = result.systems[name]
+        first = nav.outcomes[0]
+        assert first.reached, (name, first)
+        assert first.time_ratio < 1.5
+        assert nav.summary()["goals"] == 3
