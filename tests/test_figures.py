@@ -33,7 +33,7 @@ KNOWN_FAILURES = {
 
 def _marks(figure: str, claim: str) -> list:
     # one xdist group per figure: its claims share one run on one worker
-    marks = [pytest.mark.xdist_group(figure)]
+    marks = [pytest.mark.xdist_group(figure), pytest.mark.slow]
     if (figure, claim) in KNOWN_FAILURES:
         marks.append(pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[(figure, claim)]))
     return marks

@@ -13,6 +13,8 @@ from baselines import PoseGraphConfig
 
 from .test_gtsam_support import closure_truth, keyframe_ate, precision_recall, run_slam, sim_log
 
+pytestmark = pytest.mark.slow  # 15-minute streams or real logs end to end
+
 BACKENDS = ("gaussian", "robust", "gnc")
 LOOP = ("small_loop", 900.0)  # Fig 7: 15 minutes on the 7 m x 7 m corridor loop
 FLOOR = ("office_floor", 300.0)  # Fig 4's office floor, the first 5 minutes

@@ -12,6 +12,8 @@ from harness import metrics as M
 from harness.runner import dead_reckon
 from worlds.real_data import load_plaza
 
+pytestmark = pytest.mark.slow  # 15-minute streams or real logs end to end
+
 
 @pytest.fixture(scope="module")
 def plaza1_start():

@@ -12,6 +12,8 @@ from harness.scale import derive_configs
 from ratslam import RatSLAM
 from worlds.real_data import load_plaza
 
+pytestmark = pytest.mark.slow  # 15-minute streams or real logs end to end
+
 
 def _run(log, cfg):
     rs = RatSLAM(cfg)
