@@ -5,17 +5,19 @@ The controller is built from a navigator (``ratslam.navigation.ExperienceMapNavi
 truth. Each tick it reads the SLAM's pose and the current map positions of its route's nodes
 (the map correction keeps moving them) and returns a velocity command.
 
-Following. The route is the planned nodes followed by the goal point itself. Progress is an index
-into it that only moves forward: it jumps to the furthest point within ``reach_m`` of the pose among
-those at most ``window_m`` further along the route (so a route that starts behind the robot, at a
-stale current experience or at keyframes just driven, is skipped rather than driven back). The
-robot steers for the point after it, turning on the spot beyond 60 degrees of heading error, like
-the exploring robot. Arrival: progress at the goal point and the pose within ``arrive_m`` of it.
+Following. The route is the planned nodes followed by the goal point itself, each inner point
+averaged with its neighbours within ``smooth_m`` of route (one misplaced node then does not kink
+the path into a door frame). Pure pursuit: the robot's progress along the route is its
+projection onto the route ahead (within ``window_m``; of projections about as near as the
+nearest, the one furthest along, so a route that starts behind the robot, at a stale current
+experience or at keyframes just driven, is skipped rather than driven back); it steers for the
+route point ``lookahead_m`` beyond, turning on the spot beyond 60 degrees of heading error, like
+the exploring robot. Arrival: the pose within ``arrive_m`` of the goal point.
 
 Replanning (counted). The route is planned again when the pose is more than ``replan_m`` from the
 route ahead (the robot, or the map's idea of where it is, left the route), or when the distance
 still to go has not shrunk by ``stall_progress_m`` in ``stall_s`` seconds (stuck, e.g. against a
-door frame the map puts a little off). At most one replan per ``replan_interval_s``.
+wall). At most one replan per ``replan_interval_s``.
 """
 
 from __future__ import annotations
@@ -172,10 +174,14 @@ def _point_at(pts: np.ndarray, along: np.ndarray, s: float) -> np.ndarray:
     return pts[i] + (pts[i + 1] - pts[i]) * min(max((s - along[i]) / seg, 0.0), 1.0)
 
 
-def _smooth(pts: np.ndarray, along: np.ndarray, half: float) -> np.ndarray:
-    """Each inner route point replaced by the mean of the points within ``half`` metres of route
-    either side (the ends stay): one misplaced node no longer kinks the path the robot drives."""
-    near = np.abs(along[:, None] - along[None, :]) <= half
-    out = (near @ pts) / near.sum(axis=1)[:, None]
-    out[0], out[-1] = pts[0], pts[-1]
+def _smooth(pts: np.ndarray, along: np.ndarray, half: float, step: float = 0.25) -> np.ndarray:
+    """The route resampled every ``step`` m, each inner point replaced by the mean of the samples
+    within ``half`` m of route either side (the ends stay): one misplaced node no longer kinks
+    the path the robot drives, whatever the nodes' spacing."""
+    n = max(int(np.ceil(along[-1] / step)), 1)
+    s = np.linspace(0.0, along[-1], n + 1)
+    res = np.stack([np.interp(s, along, pts[:, 0]), np.interp(s, along, pts[:, 1])], axis=1)
+    near = np.abs(s[:, None] - s[None, :]) <= half
+    out = (near @ res) / near.sum(axis=1)[:, None]
+    out[0], out[-1] = res[0], res[-1]
     return out

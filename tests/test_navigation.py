@@ -95,6 +95,29 @@ def test_plan_route_reads_the_experience_maps_transition_times():
     assert rnav.plan_route(rs, (5.0, 5.0)).status == "no experience near goal"
 
 
+def test_pose_graph_route_uses_odometry_and_accepted_closures():
+    """On a pose graph of two small-loop laps: joins are consecutive keyframes (timed) and accepted
+    closures (zero time); the route back to the start takes a closure instead of the whole chain."""
+    from baselines import PoseGraphSLAM
+
+    log = simulate("small_loop", duration=150.0, seed=1)
+    pg = PoseGraphSLAM()
+    for dt, v, w, s in zip(log.dt, log.v_trans, log.v_rot, log.scene_id):
+        pg.step(dt, v, w, int(s))
+    edges, seconds = bnav.graph_edges(pg)
+    k = pg.num_keyframes
+    accepted = pg.loop_closures[pg.closure_accepted]
+    assert len(accepted) > 0
+    assert len(edges) == (k - 1) + len(accepted)
+    assert np.allclose(seconds[: k - 1], np.diff(pg.keyframe_times)) and np.all(seconds[k - 1 :] == 0)
+    start_xy = pg.keyframe_poses[0, :2]
+    route = bnav.plan_route(pg, start_xy, goal_radius=0.3)
+    assert route.found and route.nodes[0] == k - 1
+    joined = {(min(a, b), max(a, b)) for a, b in edges.tolist()}
+    assert all((min(a, b), max(a, b)) in joined for a, b in zip(route.nodes[:-1], route.nodes[1:]))
+    assert route.time_s < log.t[-1] - pg.keyframe_times[0] - 30.0  # not the chain back in time
+
+
 class _PointRobot:
     """A navigator over a corridor of nodes 1 m apart, whose pose is exact (no SLAM, no world)."""
 
@@ -156,6 +179,40 @@ def test_controller_replans_when_off_the_route():
         if ctrl.arrived:
             break
     assert ctrl.arrived and ctrl.replans >= 1 and robot.plans >= 2
+
+
+def _worst_offset(params: ControllerParams) -> float:
+    robot = _PointRobot()
+    robot.xy[4, 1] = 0.6  # one node 0.6 m off a straight corridor
+    ctrl = RouteController(robot, params)
+    ctrl.set_goal((8.0, 0.0))
+    dt, worst = 1 / 7, 0.0
+    for _ in range(400):
+        robot.move(*ctrl.command(dt), dt)
+        worst = max(worst, abs(robot.pose[1]))
+        if ctrl.arrived:
+            break
+    assert ctrl.arrived
+    return worst
+
+
+def test_controller_smooths_a_kinked_route():
+    """A misplaced node pulls the smoothed route (and the robot) much less off the line."""
+    raw = _worst_offset(ControllerParams(smooth_m=0.0))
+    smoothed = _worst_offset(ControllerParams())
+    assert raw > 0.45
+    assert smoothed < 0.35 and smoothed < 0.7 * raw
+
+
+def test_navigation_ratslam_config_mirrors_the_pose_graph_noise():
+    from baselines import PoseGraphConfig
+    from harness.navigation import navigation_ratslam_config
+
+    pg = PoseGraphConfig()
+    rs = navigation_ratslam_config(pg)
+    assert rs.reentry_position_sigma_m == pg.closure_sigma_xy
+    assert rs.reentry_heading_sigma_deg == pytest.approx(math.degrees(pg.closure_sigma_theta))
+    assert (rs.odom_speed_noise, rs.odom_heading_noise) == (pg.odom_sigma_v, pg.odom_sigma_w)
 
 
 def test_controller_reports_a_failed_plan_and_stands_still():
