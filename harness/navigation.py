@@ -188,18 +188,19 @@ def _compose(node, rel) -> tuple[float, float]:
     return node[0] + c * rel[0] - s * rel[1], node[1] + s * rel[0] + c * rel[1]
 
 
-def navigation_ratslam_config(pose_graph: PoseGraphConfig | None = None, **overrides) -> RatSLAMConfig:
+def navigation_ratslam_config(pose_graph: PoseGraphConfig | None = None, **reentry) -> RatSLAMConfig:
     """RatSLAM's defaults with re-entry fusion weighted like the pose graph's loop closures and
-    odometry (``closure_sigma_xy``, ``closure_sigma_theta``, ``odom_sigma_v``, ``odom_sigma_w``):
-    both systems then trust a scene match and the wheels alike. See the module docstring."""
+    odometry (``closures.sigma_xy_m``, ``closures.sigma_theta_rad``, ``odometry.sigma_v_m_s``,
+    ``odometry.sigma_w_rad_s``): both systems then trust a scene match and the wheels alike.
+    ``reentry`` overrides fields of :class:`ratslam.ReentryFusionConfig`. See the module docstring."""
     pg = pose_graph or PoseGraphConfig()
     fields = {
-        "reentry_position_sigma_m": pg.closure_sigma_xy,
-        "reentry_heading_sigma_deg": math.degrees(pg.closure_sigma_theta),
-        "odom_speed_noise": pg.odom_sigma_v,
-        "odom_heading_noise": pg.odom_sigma_w,
+        "position_sigma_m": pg.closures.sigma_xy_m,
+        "heading_sigma_deg": math.degrees(pg.closures.sigma_theta_rad),
+        "odom_speed_noise_m_s": pg.odometry.sigma_v_m_s,
+        "odom_heading_noise_rad_s": pg.odometry.sigma_w_rad_s,
     }
-    return RatSLAMConfig(**(fields | overrides))
+    return RatSLAMConfig().replace(reentry=fields | reentry)
 
 
 def _navigator(system: str, slam):

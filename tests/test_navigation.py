@@ -210,9 +210,12 @@ def test_navigation_ratslam_config_mirrors_the_pose_graph_noise():
 
     pg = PoseGraphConfig()
     rs = navigation_ratslam_config(pg)
-    assert rs.reentry_position_sigma_m == pg.closure_sigma_xy
-    assert rs.reentry_heading_sigma_deg == pytest.approx(math.degrees(pg.closure_sigma_theta))
-    assert (rs.odom_speed_noise, rs.odom_heading_noise) == (pg.odom_sigma_v, pg.odom_sigma_w)
+    assert rs.reentry.position_sigma_m == pg.closures.sigma_xy_m
+    assert rs.reentry.heading_sigma_deg == pytest.approx(math.degrees(pg.closures.sigma_theta_rad))
+    assert (rs.reentry.odom_speed_noise_m_s, rs.reentry.odom_heading_noise_rad_s) == (
+        pg.odometry.sigma_v_m_s,
+        pg.odometry.sigma_w_rad_s,
+    )
 
 
 def test_controller_reports_a_failed_plan_and_stands_still():
