@@ -48,6 +48,7 @@ class Variant:
     gtsam_yaw_bias: bool = False  # the pose graph estimates a constant yaw-rate bias variable
     derived_scale: bool = False  # configurations derived from the log's scale (harness/scale.py)
     wheel_errors: bool = False  # the world's odometry gets the Plaza-calibrated systematic errors
+    paper_reentries: bool = False  # RatSLAM re-enters where the pose cells say (ratslam.PAPER_REENTRIES)
 
 
 # Systematic wheel-odometry errors calibrated on a real vehicle (worlds.odometry_model), added to a
@@ -310,13 +311,19 @@ def _bias_figure(name: str, bias: float) -> Figure:
         fp_rate=0.002,
         variants=(
             Variant("paper", f"{bias} deg/s in RatSLAM's path integration (the paper's manipulation)", pi_bias=bias),
-            Variant("odometric", f"{bias} deg/s in the odometry seen by both systems", odometric_bias=bias),
+            Variant(
+                "odometric",
+                f"{bias} deg/s in the odometry seen by both systems; RatSLAM re-enters where the pose cells say",
+                odometric_bias=bias,
+                paper_reentries=True,
+            ),
             Variant(
                 "odometric_bias_var",
                 f"{bias} deg/s in the odometry; the pose graph estimates a "
                 "yaw-rate bias variable (what a practitioner does about a gyro bias)",
                 odometric_bias=bias,
                 gtsam_yaw_bias=True,
+                paper_reentries=True,
             ),
         ),
         claims=_bias_claims(bias),
@@ -329,7 +336,11 @@ def _bias_figure(name: str, bias: float) -> Figure:
             "so 1.5 / 3 / 6 deg/s add ~100 / 195 / 390 deg of heading per lap: without the bias "
             "variable the pose graph's wrapped angle residuals cannot close a loop whose heading error "
             "has grown that far, while each of RatSLAM's experience transitions (about 1 m) carries only "
-            "a few degrees of it. The variants' tables show which system closes the loop at this bias."
+            "a few degrees of it. The variants' tables show which system closes the loop at this bias. "
+            "In the odometric variants RatSLAM re-enters where the pose cells say (the paper's re-entries, "
+            "ratslam.PAPER_REENTRIES): its default re-entry fusion trusts the odometry until its innovations "
+            "show a bias over a window of re-entries, and the links laid in that time bend the map (Fig 8 "
+            "seed 0: experience map 0.57 m, paper's re-entries 0.12 m; odometry 3.2 m)."
         ),
     )
 

@@ -1,9 +1,17 @@
 """RatSLAM with experience mapping (Milford, Prasser & Wyeth, ACRA 2005)."""
 
-from .config import ExperienceMapConfig, LocalViewConfig, PoseCellConfig, RatSLAMConfig, ReentryFusionConfig
+from .config import (
+    PAPER_REENTRIES,
+    ExperienceMapConfig,
+    LocalViewConfig,
+    PoseCellConfig,
+    RatSLAMConfig,
+    ReentryFusionConfig,
+)
 from .pipeline import RatSLAM
 
 __all__ = [
+    "PAPER_REENTRIES",
     "ExperienceMapConfig",
     "LocalViewConfig",
     "PoseCellConfig",

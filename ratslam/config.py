@@ -130,6 +130,12 @@ class ExperienceMapConfig:
     """Correction form: "stable" = α times the mean residual, "printed" = eqs 12-14 (diverges). See the docs."""
     correction_iterations: int = param(1, ge=0)
     """Correction passes per tick (the paper runs one)."""
+    relocalise_path_bound: bool = True
+    """No re-entry into a place further from the predicted pose than the path driven since the
+    latest re-entry (False = the paper's: wherever the pose cells say). See the docs section."""
+    relocalise_slack_cells: float = param(4.0, ge=0)
+    """Slack of that bound, in (x', y') cells (1 m at 0.25 m cells): a view places the robot only
+    to within about its scene."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -137,19 +143,23 @@ class ExperienceMapConfig:
 
 @dataclass(frozen=True)
 class ReentryFusionConfig:
-    """Re-entry fusion: not in the paper, off by default, derived for real logs by
-    ``harness/scale.py`` (docs/configuration.md#ratslam-re-entry-fusion)."""
+    """Re-entry fusion: not in the paper, on by default (both sigmas 0 = the paper's re-entries);
+    see :mod:`ratslam.reentry` and docs/configuration.md#ratslam-re-entry-fusion."""
 
     SECTION: ClassVar[str] = "reentry"
 
-    position_sigma_m: float = param(0.0, ge=0)
-    """1-sigma per axis of where a re-entry places the robot; 0 (with heading 0) = off."""
-    heading_sigma_deg: float = param(0.0, ge=0)
+    position_sigma_m: float = param(0.25, ge=0)
+    """1-sigma per axis of where a re-entry places the robot (one pose cell); 0 (with heading 0) = off."""
+    heading_sigma_deg: float = param(5.0, ge=0)
     """1-sigma in heading of a re-entry; 0 (with position 0) = off."""
-    odom_speed_noise_m_s: float = param(0.0, ge=0)
+    odom_speed_noise_m_s: float = param(0.01, ge=0)
     """White noise on the odometry's speed per tick, for the prediction's covariance."""
-    odom_heading_noise_rad_s: float = param(0.0, ge=0)
+    odom_heading_noise_rad_s: float = param(0.01, ge=0)
     """White noise on the odometry's yaw rate per tick, for the prediction's covariance."""
+    innovation_window: int = param(15, ge=0)
+    """Re-entries whose innovations scale the odometry's noise up where it errs more (0 = off)."""
+    odometry_trust_limit: float = param(2.0, ge=1, finite=False)
+    """Noise scale beyond which re-entries ignore the odometry (a bias the model lacks; inf = never)."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -163,6 +173,14 @@ class ReentryFusionConfig:
     def enabled(self) -> bool:
         """Whether the fusion is on (both sigmas positive)."""
         return self.position_sigma_m > 0.0
+
+
+# The paper's re-entries: wherever the pose cells say (no fusion with the odometry, no bound on
+# how far a view may move the robot). ``RatSLAMConfig().replace(**PAPER_REENTRIES)``.
+PAPER_REENTRIES: dict[str, dict[str, Any]] = {
+    "experience_map": {"relocalise_path_bound": False},
+    "reentry": {"position_sigma_m": 0.0, "heading_sigma_deg": 0.0},
+}
 
 
 @dataclass(frozen=True)

@@ -20,11 +20,11 @@ influence; with ``offset_transitions`` (``ExperienceMapConfig``) the new link is
 the current pose starts at that offset, so a consistent map neither gains an error nor makes
 the pose jump at a re-entry.
 
-Re-entry fusion (``reentry.position_sigma_m`` / ``reentry.heading_sigma_deg`` > 0; not in the
-paper, see ``ReentryFusionConfig``): at a switch, the pose the pose cells give (the experience's map pose
-composed with the peak's offset) and the pose the map and the odometry predict (the current pose)
-are fused by a Kalman update, the prediction's covariance grown from the odometry noise since
-the last re-entry; the link and the current pose use the fused pose.
+Re-entry fusion (``reentry``, on by default; not in the paper, see :mod:`ratslam.reentry`): at a
+switch, the pose the pose cells give (the experience's map pose composed with the peak's offset)
+and the pose the map and the odometry predict (the current pose) are fused by a Kalman update,
+the prediction's covariance being the odometry's over the path driven since the robot was last at
+that experience; the link and the current pose use the fused pose.
 
 Map correction (eqs 12-14), every tick, all experiences at once (Jacobi)::
 
@@ -47,6 +47,7 @@ import numpy as np
 
 from . import map_kernels
 from .config import RatSLAMConfig
+from .reentry import N_SUMS, InnovationScale, PathNoise, innovation, kalman_fuse
 
 _PI = math.pi
 _NO_DIVISOR = np.zeros(0)
@@ -114,6 +115,7 @@ class ExperienceMap:
                 "first": ((), np.int64),
                 "last": ((), np.int64),
                 "degree": ((), float),
+                "noise": ((N_SUMS,), float),  # the odometry's noise sums at the last visit
             }
         )
         self._link = _Growable(
@@ -131,11 +133,12 @@ class ExperienceMap:
         self.current = -1
         # odometry accumulated since the current experience was entered, in its frame
         self._acc = np.zeros(4)  # x, y, phi, t
-        # re-entry fusion (off with zero view sigmas): covariance of the current pose relative to
-        # the map, in the map frame, grown by the odometry noise since the last re-entry
+        self._path_since_reentry = 0.0  # m driven since the latest switch to a familiar experience
+        # re-entry fusion (off with zero view sigmas): the odometry's noise along the path
         fusion = config.reentry
         self._fuse = fusion.enabled
-        self._cov = np.zeros((3, 3))
+        self._noise = PathNoise(fusion.odom_speed_noise_m_s, fusion.odom_heading_noise_rad_s)
+        self._innovations = InnovationScale(fusion.innovation_window)
         self._view_cov = np.diag(
             [fusion.position_sigma_m**2, fusion.position_sigma_m**2, math.radians(fusion.heading_sigma_deg) ** 2]
         )
@@ -203,19 +206,9 @@ class ExperienceMap:
         acc[0] += v_trans * dt * math.cos(acc[2])
         acc[1] += v_trans * dt * math.sin(acc[2])
         acc[3] += dt
+        self._path_since_reentry += abs(v_trans) * dt
         if self._fuse:
-            self._propagate(dt, v_trans)
-
-    def _propagate(self, dt: float, v_trans: float) -> None:
-        """Grow the pose covariance by one tick of odometry noise (first-order, map frame)."""
-        cfg = self.config.reentry
-        th = self.pose[2]
-        c, s = math.cos(th), math.sin(th)
-        step = v_trans * dt
-        F = np.array([[1.0, 0.0, -s * step], [0.0, 1.0, c * step], [0.0, 0.0, 1.0]])
-        sv, sw = (cfg.odom_speed_noise_m_s * dt) ** 2, (cfg.odom_heading_noise_rad_s * dt) ** 2
-        Q = np.array([[c * c * sv, c * s * sv, 0.0], [c * s * sv, s * s * sv, 0.0], [0.0, 0.0, sw]])
-        self._cov = F @ self._cov @ F.T + Q
+            self._noise.integrate(dt, v_trans, v_rot)
 
     # ------------------------------------------------------------------ eqs 2-9
     def energy(self, peak_cell: np.ndarray, view: int, ids: np.ndarray | None = None) -> np.ndarray:
@@ -239,7 +232,7 @@ class ExperienceMap:
         """Append an experience with a given map pose, pose-cell coordinates and view; returns
         its index (eqs 10-11 call this with the current pose)."""
         x, y, th = (float(v) for v in pose)
-        j = self._exp.append(x=x, y=y, th=th, cell=cell, view=view, first=tick, last=tick)
+        j = self._exp.append(x=x, y=y, th=th, cell=cell, view=view, first=tick, last=tick, noise=self._noise.sums)
         self._by_view.setdefault(int(view), []).append(j)
         return j
 
@@ -284,45 +277,71 @@ class ExperienceMap:
         if view < 0:
             return "none"
         ids = self._by_view.get(int(view))
-        best, best_e = -1, 0.0
         if ids:
             ids_arr = np.asarray(ids)
             e = self.energy(peak_cell, view, ids_arr)
-            k = int(np.argmax(e))
-            best, best_e = int(ids_arr[k]), float(e[k])
-        if best_e <= 0.0:  # eqs 10-11
-            j = self._new_experience(tick, peak_cell, view)
-            if self.current >= 0:
-                self._add_link(self.current, j)
-            self._enter(j, tick)
-            return "create"
-        if best != self.current:
-            offset = (
-                self.peak_offset(best, peak_cell) if self.config.experience_map.offset_transitions else (0.0, 0.0, 0.0)
-            )
-            if self.current >= 0 and self._fuse:
-                offset = self.fuse_reentry(best, offset)
-            if self.current >= 0:
-                self._add_link(self.current, best, offset)
-            self._enter(best, tick, offset)
-            return "switch"
-        return "none"
+            for k in np.argsort(-e, kind="stable"):  # most energetic first (eq 9)
+                if e[k] <= 0.0:
+                    break
+                j = int(ids_arr[k])
+                if j == self.current:
+                    return "none"
+                offset = self._reentry_offset(j, peak_cell)
+                if offset is not None:
+                    if self.current >= 0:
+                        self._add_link(self.current, j, offset)
+                    self._enter(j, tick, offset)
+                    self._path_since_reentry = 0.0
+                    return "switch"
+        # eqs 10-11: no experience with positive energy (or none a plausible re-entry)
+        j = self._new_experience(tick, peak_cell, view)
+        if self.current >= 0:
+            self._add_link(self.current, j)
+        self._enter(j, tick)
+        return "create"
+
+    def _reentry_offset(self, j: int, peak_cell: np.ndarray):
+        """Where the robot is in ``j``'s frame if it re-enters ``j`` now (the pose cells' offset,
+        fused with the odometry's prediction when the re-entry fusion is on), or None if that
+        re-entry is not plausible: with ``experience_map.relocalise_path_bound``, a place further
+        from the predicted pose than the path driven since the latest re-entry (plus
+        ``relocalise_slack_cells``) cannot be where the robot is, whatever the view says (a
+        look-alike place, an aliased scene)."""
+        cfg = self.config.experience_map
+        offset = self.peak_offset(j, peak_cell) if cfg.offset_transitions else (0.0, 0.0, 0.0)
+        if self.current < 0:
+            return offset
+        if cfg.relocalise_path_bound:
+            slack = cfg.relocalise_slack_cells * self.config.pose_cells.cell_size_m
+            x, y, _ = self._robot_at(j, offset)
+            px, py, _ = self.pose
+            if math.hypot(x - px, y - py) > self._path_since_reentry + slack:
+                return None
+        return self.fuse_reentry(j, offset) if self._fuse else offset
+
+    def _robot_at(self, j: int, offset) -> tuple[float, float, float]:
+        """The map pose of a robot at ``offset`` (forward, left, heading) in ``j``'s frame."""
+        c = self._exp.cols
+        xj, yj, tj = c["x"][j], c["y"][j], c["th"][j]
+        cj, sj = math.cos(tj), math.sin(tj)
+        return (xj + cj * offset[0] - sj * offset[1], yj + sj * offset[0] + cj * offset[1], tj + offset[2])
 
     def fuse_reentry(self, j: int, offset):
         """Kalman update at a re-entry into ``j``: the pose the pose cells give (``offset`` in
         ``j``'s frame; covariance from the reentry sigmas) fused with the pose the map and the
-        odometry predict (covariance grown since the last re-entry). Returns the fused pose as
-        an offset in ``j``'s frame and shrinks the covariance."""
-        c = self._exp.cols
-        xj, yj, tj = c["x"][j], c["y"][j], c["th"][j]
+        odometry predict (the odometry's covariance since the robot was last at ``j``). Returns
+        the fused pose as an offset in ``j``'s frame."""
+        meas = self._robot_at(j, offset)
+        pred = self.pose
+        p_cov = self._noise.covariance_since(self._exp.cols["noise"][j], pred[2])
+        nu = innovation(pred, meas)
+        scale = self._innovations.scale
+        self._innovations.add(nu, p_cov, self._view_cov)
+        if not self._innovations.trusted(self.config.reentry.odometry_trust_limit):
+            return offset  # the odometry has not shown that it keeps to its model: the pose cells alone
+        fused = kalman_fuse(pred, scale * p_cov, nu, self._view_cov)
+        xj, yj, tj = self._exp.cols["x"][j], self._exp.cols["y"][j], self._exp.cols["th"][j]
         cj, sj = math.cos(tj), math.sin(tj)
-        meas = np.array([xj + cj * offset[0] - sj * offset[1], yj + sj * offset[0] + cj * offset[1], tj + offset[2]])
-        pred = np.array(self.pose)
-        nu = meas - pred
-        nu[2] = _wrap_scalar(nu[2])
-        gain = self._cov @ np.linalg.inv(self._cov + self._view_cov)
-        fused = pred + gain @ nu
-        self._cov = (np.eye(3) - gain) @ self._cov
         dx, dy = fused[0] - xj, fused[1] - yj
         return (cj * dx + sj * dy, -sj * dx + cj * dy, _wrap_scalar(fused[2] - tj))
 
@@ -341,6 +360,7 @@ class ExperienceMap:
         """Make ``j`` current; the robot is at ``offset`` in its frame."""
         self.current = j
         self._exp.cols["last"][j] = tick
+        self._exp.cols["noise"][j] = self._noise.sums
         self._acc[:3] = offset
         self._acc[3] = 0.0
 
@@ -404,7 +424,9 @@ class ExperienceMap:
         s.update({f"lk_{k}": self._link.view(k).copy() for k in self._link.cols})
         s["em_current"] = np.array([self.current], dtype=np.int64)
         s["em_acc"] = self._acc.copy()
-        s["em_cov"] = self._cov.copy()
+        s["em_path_noise"] = self._noise.get_state()
+        s["em_innovations"] = self._innovations.get_state()
+        s["em_path_since_reentry"] = np.array([self._path_since_reentry])
         return s
 
     def set_state(self, s: dict) -> None:
@@ -413,7 +435,9 @@ class ExperienceMap:
         self._link.load({k: s[f"lk_{k}"] for k in self._link.cols})
         self.current = int(s["em_current"][0])
         self._acc = np.asarray(s["em_acc"], dtype=float).copy()
-        self._cov = np.asarray(s["em_cov"], dtype=float).copy() if "em_cov" in s else np.zeros((3, 3))
+        self._noise.set_state(s["em_path_noise"])
+        self._innovations.set_state(s["em_innovations"])
+        self._path_since_reentry = float(s["em_path_since_reentry"][0])
         self._divisor_key = None
         self._by_view = {}
         for i, v in enumerate(self.views):

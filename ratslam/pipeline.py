@@ -16,7 +16,7 @@ from .local_view import LocalView
 from .pose_cells import PoseCells
 from .snaps import is_snap
 
-_FORMAT = "ratslam-state-3"  # 2: adds the step index of the latest snap; 3: nested config
+_FORMAT = "ratslam-state-4"  # 2: the latest snap; 3: nested config; 4: path noise per experience
 
 
 class RatSLAM:

@@ -62,7 +62,7 @@ def test_values_go_on_top_of_the_given_configs(tmp_path):
         ("[ratslam]\npose_cells.nx = 3\n", "[ratslam.pose_cells] nx: must be an integer >= 4, got 3"),
         ('[gtsam.backend]\nkind = "magic"\n', "[gtsam.backend] kind: must be one of 'gaussian', 'robust', 'gnc'"),
         ('[gtsam.yaw_bias]\nestimate = true\n[gtsam.backend]\nkind = "gnc"\n', "[gtsam.yaw_bias] estimate: not avail"),
-        ("[ratslam.reentry]\nposition_sigma_m = 1.0\n", "[ratslam.reentry] position_sigma_m/heading_sigma_deg: both"),
+        ("[ratslam.reentry]\nposition_sigma_m = 0.0\n", "[ratslam.reentry] position_sigma_m/heading_sigma_deg: both"),
         ("[ratslam.pose_cells]\nnx = \n", "not valid TOML"),
         ("ratslam = 3\n", "ratslam: expected a table [ratslam]"),
     ],

@@ -5,9 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from ratslam import ReentryFusionConfig
+from ratslam import PAPER_REENTRIES, ReentryFusionConfig
 from ratslam.experience_map import ExperienceMap, wrap_angle
-from tests.helpers import CFG
+from ratslam.reentry import InnovationScale, PathNoise
+from tests.helpers import CFG as DEFAULT
+
+# eqs 2-14 as the paper has them: re-entries wherever the pose cells say
+CFG = DEFAULT.replace(**PAPER_REENTRIES)
 
 
 def make_map(cfg=CFG, poses=(), links=(), cells=None):
@@ -272,65 +276,80 @@ def test_duplicate_transitions_are_not_added():
 # ---------------------------------------------------------------- re-entry fusion (not in the paper)
 FUSE = CFG.replace(
     reentry=ReentryFusionConfig(
-        position_sigma_m=0.5, heading_sigma_deg=5.0, odom_speed_noise_m_s=0.1, odom_heading_noise_rad_s=0.01
+        position_sigma_m=0.5,
+        heading_sigma_deg=5.0,
+        odom_speed_noise_m_s=0.1,
+        odom_heading_noise_rad_s=0.01,
+        innovation_window=0,
     )
 )
 
 
-def test_reentry_fusion_is_off_by_default_and_needs_both_sigmas():
-    assert CFG.reentry.position_sigma_m == 0.0 and CFG.reentry.heading_sigma_deg == 0.0
-    em = ExperienceMap(CFG)
-    em.integrate(1.0, 1.0, 0.1)
-    np.testing.assert_array_equal(em._cov, 0.0)  # nothing is tracked when off
+def test_reentry_fusion_is_on_by_default_and_needs_both_sigmas():
+    assert DEFAULT.reentry.enabled and DEFAULT.experience_map.relocalise_path_bound
+    assert not CFG.reentry.enabled  # the paper's re-entries
     with pytest.raises(ValueError, match="^reentry.position_sigma_m/heading_sigma_deg: both 0"):
         CFG.replace(reentry={"position_sigma_m": 0.5})
     with pytest.raises(ValueError, match="^reentry.odom_speed_noise_m_s: must be a finite number >= 0"):
-        CFG.replace(reentry={"heading_sigma_deg": 3.0, "position_sigma_m": 0.5, "odom_speed_noise_m_s": -1.0})
+        CFG.replace(reentry={"odom_speed_noise_m_s": -1.0})
 
 
-def test_odometry_covariance_grows_along_track_and_across_it_through_the_heading():
-    em = ExperienceMap(FUSE)
-    em.add_experience((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1, 0)
-    em._enter(0, 0)
+def test_path_noise_grows_along_track_and_across_it_through_the_heading():
+    noise = PathNoise(0.1, 0.01)
+    start = noise.sums.copy()
     for _ in range(100):  # 100 m straight along x at 1 m/s
-        em.integrate(1.0, 1.0, 0.0)
-    cov = em._cov
+        noise.integrate(1.0, 1.0, 0.0)
+    cov = noise.covariance_since(start, 0.0)
     assert cov[0, 0] == pytest.approx(100 * 0.1**2)  # white speed noise: linear in ticks
     assert cov[2, 2] == pytest.approx(100 * 0.01**2)
-    # heading random walk: cross-track variance sum_k (k * 0.01)^2 ~ 0.01^2 * n^3 / 3
-    assert cov[1, 1] == pytest.approx(0.01**2 * sum(k * k for k in range(100)), rel=1e-9)
+    # heading random walk: a heading error at tick k acts over the 100 - k m after it
+    assert cov[1, 1] == pytest.approx(0.01**2 * sum(k * k for k in range(1, 101)), rel=1e-9)
+    assert cov[1, 2] == pytest.approx(0.01**2 * sum(range(1, 101)), rel=1e-9)
+    # in a map frame turned by 90 degrees the along- and cross-track variances swap
+    turned = noise.covariance_since(start, math.pi / 2)
+    assert turned[0, 0] == pytest.approx(cov[1, 1]) and turned[1, 1] == pytest.approx(cov[0, 0])
 
 
-def _reentry(cov):
-    """Experience 0 at the origin; the robot drove a loop and the map and odometry put it at
-    (0.4, 0.0, 0.0) in experience 0's frame, the pose cells at (0.0, 0.0, 0.1) (cell offset)."""
+def test_path_noise_is_the_noise_since_the_snapshot_only():
+    """The prediction's error at a re-entry is the odometry's since the robot was last at that
+    place, not since the start: 100 m then a snapshot then 10 m = the 10 m alone."""
+    a, b = PathNoise(0.1, 0.01), PathNoise(0.1, 0.01)
+    for _ in range(100):
+        a.integrate(1.0, 1.0, 0.02)
+    snap_a, snap_b = a.sums.copy(), b.sums.copy()
+    b.pose[2] = a.pose[2]
+    for _ in range(10):
+        a.integrate(1.0, 1.0, 0.02)
+        b.integrate(1.0, 1.0, 0.02)
+    np.testing.assert_allclose(a.covariance_since(snap_a, 0.3), b.covariance_since(snap_b, 0.3), rtol=1e-6, atol=1e-12)
+
+
+def _reentry(since_m: float):
+    """Experience 0 at the origin, visited; the robot drove ``since_m`` metres and is back, the
+    map and odometry putting it at (0.4, 0.0, 0.0) in experience 0's frame, the pose cells at
+    (0.0, 0.0, 0.1) (the cell offset)."""
     em = ExperienceMap(FUSE)
     em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 7, 0)
     em.add_experience((5.0, 0.0, math.pi), (30.0, 10.0, 18.0), 8, 1)
+    em._enter(0, 0)
+    for _ in range(int(since_m)):
+        em.integrate(1.0, 1.0, 0.0)
     em._enter(1, 1)
     em._acc[:] = (4.6, 0.0, math.pi, 10.0)  # 4.6 m on from experience 1, turned back
-    em._cov = np.array(cov, dtype=float)
-    pc = (0.0, 0.0, 0.1)
-    return em, em.fuse_reentry(0, pc)
+    return em.fuse_reentry(0, (0.0, 0.0, 0.1))
 
 
-def test_reentry_fusion_keeps_the_odometry_when_it_is_certain():
-    em, off = _reentry(np.zeros((3, 3)))
-    assert off == pytest.approx((0.4, 0.0, 0.0), abs=1e-12)
-    np.testing.assert_array_equal(em._cov, 0.0)
+def test_reentry_fusion_keeps_the_odometry_just_after_the_place():
+    assert _reentry(0) == pytest.approx((0.4, 0.0, 0.0), abs=1e-12)
 
 
-def test_reentry_fusion_takes_the_pose_cells_when_the_odometry_is_lost():
-    em, off = _reentry(np.eye(3) * 1e9)
-    assert off == pytest.approx((0.0, 0.0, 0.1), abs=1e-6)
-    assert em._cov[0, 0] == pytest.approx(0.5**2, rel=1e-6)  # posterior: the view's
+def test_reentry_fusion_takes_the_pose_cells_after_a_long_way():
+    assert _reentry(100000) == pytest.approx((0.0, 0.0, 0.1), abs=2e-3)
 
 
 def test_reentry_fusion_weighs_the_two_by_their_variances():
-    view = np.diag([0.5**2, 0.5**2, math.radians(5.0) ** 2])
-    em, off = _reentry(view)  # equal variances: the midpoint
-    assert off == pytest.approx((0.2, 0.0, 0.05), abs=1e-12)
-    np.testing.assert_allclose(em._cov, view / 2, rtol=1e-12)
+    x, _, th = _reentry(30)
+    assert 0.0 < x < 0.4 and 0.0 < th < 0.1
 
 
 def test_reentry_fusion_sets_link_and_pose_from_the_fused_offset():
@@ -338,10 +357,43 @@ def test_reentry_fusion_sets_link_and_pose_from_the_fused_offset():
     em = ExperienceMap(FUSE)
     em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 5, 0)
     em.add_experience((1.0, 0.0, 0.0), (14.0, 10.0, 0.0), 6, 1)
-    em._enter(1, 1)
+    em._enter(0, 0)
+    em._enter(1, 1)  # just left experience 0: the odometry is certain since
     em.integrate(1.0, -1.0, 0.0)  # back to where experience 0 is, exactly
-    em._cov = np.zeros((3, 3))  # ... and certain of it
     # the pose cells put the robot 0.25 m (one cell) ahead of experience 0, 10 deg turned
     assert em.update(3, np.array([11.0, 10.0, 1.0]), 5) == "switch"
-    assert em.pose == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
-    np.testing.assert_allclose(em.link_residuals()[-1], 0.0, atol=1e-12)
+    # one metre of odometry (variance 0.01 m^2) against the view's 0.25 m^2: mostly the odometry
+    assert em.pose == pytest.approx((0.0, 0.0, 0.0), abs=0.02)
+    np.testing.assert_allclose(em.link_residuals()[-1], 0.0, atol=0.02)
+
+
+def test_innovation_scale_stays_at_one_where_the_odometry_keeps_to_its_model():
+    rng = np.random.default_rng(0)
+    scale = InnovationScale(15)
+    p, r = np.diag([0.04, 0.04, 0.001]), np.diag([0.01, 0.01, 0.001])
+    for _ in range(40):
+        scale.add(rng.multivariate_normal(np.zeros(3), p + r), p, r)
+    assert scale.scale < 2.0 and scale.trusted(2.0)
+
+
+def test_innovation_scale_finds_an_odometry_ten_times_worse_than_its_model():
+    rng = np.random.default_rng(1)
+    scale = InnovationScale(15)
+    p, r = np.diag([0.04, 0.04, 0.001]), np.diag([0.01, 0.01, 0.001])
+    for _ in range(40):
+        scale.add(rng.multivariate_normal(np.zeros(3), 10.0 * p + r), p, r)
+    assert 4.0 < scale.scale < 25.0 and not scale.trusted(2.0)
+
+
+def test_path_bound_rejects_a_look_alike_place_further_than_the_path_driven():
+    """A view of a place 5 m from the prediction, 1 m after the latest re-entry: not a re-entry
+    (a look-alike place) - a new experience instead; the paper's re-entries take it."""
+    for cfg, expected in ((DEFAULT, "create"), (CFG, "switch")):
+        em = ExperienceMap(cfg)
+        em.add_experience((5.0, 0.0, 0.0), (30.0, 10.0, 0.0), 9, 0)  # the look-alike, 5 m on
+        em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 5, 0)
+        em._enter(1, 0)
+        em.integrate(1.0, 0.0, 0.0)
+        em._path_since_reentry = 1.0
+        # the pose cells snapped onto the look-alike's cells
+        assert em.update(3, np.array([30.0, 10.0, 0.0]), 9) == expected

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from ratslam import RatSLAM, RatSLAMConfig
+from ratslam import PAPER_REENTRIES, RatSLAM, RatSLAMConfig
 from tests.helpers import CFG, DT, GRID, wrapped_diff
 
 
@@ -169,8 +169,9 @@ def test_snapped_is_the_snap_metric_across_the_wrap():
 def test_experience_map_waits_for_the_peak_to_settle_after_a_snap(settle):
     """A map that follows a flipping peak links far-apart places, so after a snap the map acts
     on no view for ``experience_map.snap_settle_ticks``; afterwards the relocalised peak re-enters the
-    corridor's experiences (a loop closure, not new experiences)."""
-    slam = RatSLAM(CFG.replace(experience_map={"snap_settle_ticks": settle}))
+    corridor's experiences (a loop closure, not new experiences). The paper's re-entries: the
+    stream's odometry does not carry the robot back, so the path bound would refuse the jump."""
+    slam = RatSLAM(CFG.replace(**PAPER_REENTRIES).replace(experience_map={"snap_settle_ticks": settle}))
     learn_corridor_then_move_away(slam)
     n_corridor = len(slam.experience_views)
     first_snap, acted = None, []
@@ -206,7 +207,9 @@ def test_single_false_positive_tick_does_not_move_the_peak():
 def test_save_load_round_trip_is_exact(tmp_path, fusion):
     stream = synthetic_stream(1200)
     cfg = RatSLAMConfig()
-    if fusion:  # the re-entry fusion's covariance is state too
+    if not fusion:
+        cfg = cfg.replace(**PAPER_REENTRIES)
+    else:  # the re-entry fusion's noise sums and innovations are state too
         cfg = cfg.replace(
             reentry={
                 "position_sigma_m": 0.3,
