@@ -440,15 +440,13 @@ class _Progress:
     """Exploration ticks, then goals per system, on stderr."""
 
     def __init__(self, enabled: bool, dt: float):
-        self.enabled, self.dt = enabled, dt
-        self._bar: Progress | None = None
+        self.enabled = enabled
+        self._bar = Progress(1, "exploration", dt, enabled=enabled)  # the clock starts now
 
     def __call__(self, system: str, done: int, total: int) -> None:
         if not self.enabled:
             return
         if system == "exploration":
-            if self._bar is None:
-                self._bar = Progress(total, "exploration", self.dt)
             self._bar(done, total)
         elif done == total or done % 10 == 0:
             print(f"navigation on {system}: {done}/{total} goals", file=sys.stderr, flush=True)
