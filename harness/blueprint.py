@@ -26,11 +26,17 @@ def _trail() -> rrb.VisibleTimeRanges:
     )
 
 
-def default_blueprint(grid_shape, world_bounds=None) -> rrb.Blueprint:
+#: Goal navigation (:mod:`harness.nav_experiment`): the true paths driven, per system.
+NAV_TRAIL_ENTITIES = ("/world/nav/ratslam/driven", "/world/nav/gtsam/driven")
+
+
+def default_blueprint(grid_shape, world_bounds=None, navigation: bool = False) -> rrb.Blueprint:
     """Blueprint for a recording written by :class:`harness.recorder.Recorder`.
 
     ``grid_shape``: pose-cell grid (nx, ny, ...), framing the activity panel;
-    ``world_bounds``: ``(x0, y0, x1, y1)`` metres framing the world panel (None: fit the data).
+    ``world_bounds``: ``(x0, y0, x1, y1)`` metres framing the world panel (None: fit the data);
+    ``navigation``: a goal-navigation recording (:mod:`harness.nav_experiment`): the driven
+    paths as trails and a third time-series panel for ``/metrics/nav`` (success, time ratio).
     """
     nx, ny = int(grid_shape[0]), int(grid_shape[1])
     world_kw: dict[str, Any] = {}
@@ -40,12 +46,14 @@ def default_blueprint(grid_shape, world_bounds=None) -> rrb.Blueprint:
         # The world is drawn with y up: the /world entity is mirrored (see Recorder), so its
         # y range appears negated in the view's coordinates.
         world_kw["visual_bounds"] = rrb.VisualBounds2D(x_range=[x0 - mx, x1 + mx], y_range=[-y1 - my, -y0 + my])
+    trails = TRAIL_ENTITIES + (NAV_TRAIL_ENTITIES if navigation else ())
+    nav_name = "; navigation: goal (green), planned route, driven path" if navigation else ""
     world = rrb.Spatial2DView(
         name="World: ground truth (white), odometry (orange), experience map (blue), GTSAM (magenta), "
-        "false positives (red)",
+        "false positives (red)" + nav_name,
         origin="/",
         contents=["+ /world/**"],
-        overrides={p: _trail() for p in TRAIL_ENTITIES if p.startswith("/world")},
+        overrides={p: _trail() for p in trails if p.startswith("/world")},
         **world_kw,
     )
     pose_cells = rrb.Spatial2DView(
@@ -60,11 +68,21 @@ def default_blueprint(grid_shape, world_bounds=None) -> rrb.Blueprint:
     )
     errors = rrb.TimeSeriesView(name="ATE so far (m)", origin="/metrics/ate", axis_x=whole_run)
     counts = rrb.TimeSeriesView(
-        name="Counts", origin="/metrics", contents=["+ /metrics/**", "- /metrics/ate/**"], axis_x=whole_run
+        name="Counts",
+        origin="/metrics",
+        contents=["+ /metrics/**", "- /metrics/ate/**", "- /metrics/nav/**"],
+        axis_x=whole_run,
     )
+    series: list[Any] = [errors, counts]
+    if navigation:
+        series.append(
+            rrb.TimeSeriesView(
+                name="Navigation: reached (0/1), success rate, time ratio", origin="/metrics/nav", axis_x=whole_run
+            )
+        )
     return rrb.Blueprint(
         rrb.Horizontal(
-            world, rrb.Vertical(pose_cells, rrb.Horizontal(errors, counts), row_shares=[3, 2]), column_shares=[3, 2]
+            world, rrb.Vertical(pose_cells, rrb.Horizontal(*series), row_shares=[3, 2]), column_shares=[3, 2]
         ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),

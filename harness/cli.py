@@ -180,6 +180,34 @@ def _cmd_sweep(args) -> None:
     print(f"sweep directory: {out}\n  runs:   {out / 'runs.csv'}\n  report: {out / 'report.md'}")
 
 
+def _cmd_nav(args) -> None:
+    from worlds.files import read_json
+
+    from .nav_experiment import run_nav_experiment
+
+    out = run_nav_experiment(
+        args.world,
+        out=args.out,
+        seed=args.seed,
+        n_goals=args.goals,
+        exploration_s=args.exploration,
+        recording=not args.no_recording,
+        show_progress=not args.quiet,
+    )
+    m = read_json(out / "metrics.json")
+    for name, s in m["summary"].items():
+        ratio = s["median_time_ratio"]
+        print(
+            f"  {name}: {s['reached']}/{s['goals']} goals reached, median time ratio "
+            f"{'n/a' if ratio is None else f'{ratio:.2f}'}, {s['replans_total']} replans"
+        )
+    for c in m["claims"]:
+        print(f"  [{'held' if c['held'] else 'NOT held'}] {c['statement']}")
+    print(f"run directory: {out}\n  report:    {out / 'report.md'}\n  map:       {out / 'ratslam_map.npz'}")
+    if (out / "recording.rrd").exists():
+        print(f"  recording: {out / 'recording.rrd'}  (open it with: rerun {out / 'recording.rrd'})")
+
+
 def _print_run_summary(out: Path) -> None:
     from .results import RunResult
 
@@ -351,6 +379,20 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--scheduler", help="run on a Dask distributed cluster at this address (tcp://HOST:8786)")
     sw.add_argument("--yes", action="store_true", help="run even if the spec expands to more than max_runs")
     sw.set_defaults(func=_cmd_sweep)
+
+    nv = sub.add_parser(
+        "nav",
+        help="goal navigation: explore a world, then drive to goals on RatSLAM's experience map "
+        "and on GTSAM's pose graph (success rate, time ratio)",
+    )
+    nv.add_argument("world", help="a shipped world's name or a world .toml file")
+    nv.add_argument("--seed", type=int, default=0, help="seed of the exploration and the goals (default 0)")
+    nv.add_argument("--goals", type=int, default=50, help="goals driven to on each map (default 50)")
+    nv.add_argument("--exploration", type=float, help="exploration, simulated seconds (default: the world's)")
+    nv.add_argument("--out", help="run directory (default: reports/nav_WORLD)")
+    nv.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    nv.add_argument("--quiet", action="store_true", help="no progress output")
+    nv.set_defaults(func=_cmd_nav)
 
     rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run or sweep directory")
     rep.add_argument("dir", help="run directory, or sweep directory (rebuilt from its runs.csv)")

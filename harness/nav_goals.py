@@ -10,7 +10,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
-from worlds import World
+from worlds import InputError, World
+
+
+class GoalDrawError(InputError):
+    """The exploration is too short (or too confined) for the goals asked for."""
 
 
 def draw_goal_ticks(
@@ -36,7 +40,10 @@ def draw_goal_ticks(
             ticks.append(k)
             prev = gt_xy[k]
     if len(ticks) < n_goals:
-        raise ValueError(f"could not draw {n_goals} goals {min_separation_m} m apart from the exploration")
+        raise GoalDrawError(
+            f"could not draw {n_goals} goals {min_separation_m:g} m apart from the places visited after "
+            f"{first_tick} ticks of exploration: explore for longer or ask for fewer goals"
+        )
     return np.array(ticks, dtype=np.int64)
 
 

@@ -57,7 +57,7 @@ from baselines import PoseGraphConfig, PoseGraphSLAM
 from baselines.navigation import PoseGraphNavigator
 from ratslam import RatSLAM, RatSLAMConfig
 from ratslam.navigation import ExperienceMapNavigator
-from worlds import World, load_world, simulate
+from worlds import ObservationLog, World, load_world, simulate
 from worlds.drive import Drive
 
 from .nav_controller import ControllerParams, RouteController
@@ -66,6 +66,34 @@ from .nav_goals import draw_goal_ticks, route_network_distance
 SYSTEMS = ("ratslam", "gtsam")
 GOAL_SEPARATION_M = 3.0
 FIRST_GOAL_S = 30.0  # goals are drawn from exploration ticks after this (the maps exist by then)
+
+
+class NavigationHooks:
+    """Observers of :func:`run_navigation`, called at fixed points (the default does nothing).
+
+    They see the systems' navigators and the simulator's stream and may record or save them, but
+    must not step or change them: the experiment's outcome does not depend on the hooks."""
+
+    def exploration_started(self, world: World, log: ObservationLog) -> None:
+        """Before the first exploration tick: the whole exploration stream (with ground truth)."""
+
+    def exploration_tick(self, k: int, navs: dict) -> None:
+        """After exploration tick ``k`` was fed to every system (``navs``: system -> navigator)."""
+
+    def explored(self, navs: dict) -> None:
+        """After the exploration, before the first goal: the post-exploration maps."""
+
+    def goal_started(self, system: str, goal: int, true_goal: tuple[float, float], map_goal) -> None:
+        """Goal ``goal`` handed to ``system`` (``map_goal`` in the system's map frame)."""
+
+    def planned(self, system: str, goal: int, nav, nodes: np.ndarray) -> None:
+        """A route was planned (first plan or replan) on ``system``'s map: its ``nodes``."""
+
+    def navigation_tick(self, system: str, goal: int, true_pose, nav) -> None:
+        """One tick driven on ``system``'s map (``true_pose``: ground truth, for the record only)."""
+
+    def goal_ended(self, system: str, outcome: GoalOutcome) -> None:
+        """The goal's outcome on ``system``'s map."""
 
 
 @dataclass(frozen=True)
@@ -124,6 +152,7 @@ class SystemNavigation:
             "reached": sum(o.reached for o in self.outcomes),
             "success_rate": self.success_rate,
             "median_time_ratio": self.median_time_ratio,
+            "mean_time_ratio": float(np.mean(r)) if len(r) else math.nan,
             "p90_time_ratio": float(np.percentile(r, 90)) if len(r) else math.nan,
             "replans_total": sum(o.replans for o in self.outcomes),
             "goals_with_replans": sum(o.replans > 0 for o in self.outcomes),
@@ -225,16 +254,19 @@ def run_navigation(
     out: str | Path | None = None,
     trace: bool = False,
     progress: Callable[[str, int, int], None] | None = None,
+    hooks: NavigationHooks | None = None,
 ) -> NavigationResult:
     """Explore ``world_name`` for ``exploration_s`` s, then drive to ``n_goals`` goals on each
     system's map (see the module docstring). ``goal_radius``: a node within this of the goal
     point is the goal node; ``success_radius``: judged on ground truth; ``lookalikes=False``: the
     world's look-alike regions show their own scenes. Writes JSON to ``out`` if given;
     ``ratslam_config`` None: :func:`navigation_ratslam_config`. ``trace`` keeps per-tick true and
-    estimated poses; ``progress(system, done, total)``."""
+    estimated poses; ``progress(system, done, total)``: system "exploration" counts ticks, the
+    others goals; ``hooks``: observers (recording, saving the map; see :class:`NavigationHooks`)."""
     for s in systems:
         if s not in SYSTEMS:
             raise ValueError(f"unknown system {s!r} (known: {', '.join(SYSTEMS)})")
+    hooks = hooks if hooks is not None else NavigationHooks()
     world = load_world(world_name)
     if not lookalikes and world.scenes.lookalikes:
         world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
@@ -252,6 +284,8 @@ def run_navigation(
     navs = {s: _navigator(s, RatSLAM(rs_config) if s == "ratslam" else PoseGraphSLAM(pg_config)) for s in systems}
     anchors: dict[str, dict[int, tuple[int, tuple[float, float, float]]]] = {s: {} for s in systems}
     wanted = set(goal_ticks.tolist())
+    hooks.exploration_started(world, log)
+    report_every = max(1, len(log) // 100)
     rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
     for k, (dt, v, w, scene) in enumerate(rows):
         for s in systems:
@@ -260,6 +294,10 @@ def run_navigation(
                 node = navs[s].current_node
                 rel = _relative(navs[s].node_pose(node), navs[s].pose) if node >= 0 else (0.0, 0.0, 0.0)
                 anchors[s][k] = (node, rel)
+        hooks.exploration_tick(k, navs)
+        if progress is not None and ((k + 1) % report_every == 0 or k + 1 == len(log)):
+            progress("exploration", k + 1, len(log))
+    hooks.explored(navs)
     seen = log.scene_id[np.sort(np.unique(log.scene_id, return_index=True)[1])]
 
     params = controller or ControllerParams(speed=world.robot.speed, max_turn_rate_deg=world.robot.max_turn_rate_deg)
@@ -269,7 +307,7 @@ def run_navigation(
         drive = Drive(world, gt[-1], seed=seed, seen_scenes=seen)
         results[s] = _navigate(
             s, navs[s], drive, world, gt, goal_ticks, anchors[s], params, success_radius,
-            timeout_factor, timeout_extra_s, trace, progress,
+            timeout_factor, timeout_extra_s, trace, progress, hooks,
         )  # fmt: skip
     result = NavigationResult(
         world=world.name,
@@ -295,7 +333,7 @@ def run_navigation(
 
 def _navigate(
     system, nav, drive, world, gt, goal_ticks, anchors, params, success_radius, timeout_factor, timeout_extra_s, trace,
-    progress,
+    progress, hooks,
 ) -> SystemNavigation:  # fmt: skip
     """Drive to every goal in turn on one system's map."""
     dt = world.dt
@@ -308,16 +346,24 @@ def _navigate(
         shortest = route_network_distance(world, start[:2], true_goal) / params.speed
         node, rel = anchors[k]
         map_goal = _compose(nav.node_pose(node), rel) if node >= 0 else (math.nan, math.nan)
+        hooks.goal_started(system, g, true_goal, map_goal)
         status = ctrl.set_goal(map_goal) if node >= 0 else "no current experience"
+        route = ctrl.route_nodes
+        if node >= 0:
+            hooks.planned(system, g, nav, route)
         limit = timeout_factor * shortest + timeout_extra_s
         t = 0.0
         while status == "ok" and not ctrl.arrived and t < limit:
             v, w = ctrl.command(dt)
+            if ctrl.route_nodes is not route:  # replanned
+                route = ctrl.route_nodes
+                hooks.planned(system, g, nav, route)
             if ctrl.arrived or ctrl.status != "ok":
                 break
             obs = drive.step(v, w)
             nav.step(*obs)
             t += dt
+            hooks.navigation_tick(system, g, drive.true_pose, nav)
             if trace:
                 tr["true"].append(drive.true_pose)
                 tr["estimate"].append(nav.pose)
@@ -332,20 +378,20 @@ def _navigate(
             final = "reached" if error <= success_radius else "wrong place"
         else:
             final = "timeout"
-        outcomes.append(
-            GoalOutcome(
-                index=g,
-                tick=k,
-                true_goal=true_goal,
-                true_start=(start[0], start[1]),
-                map_goal=(float(map_goal[0]), float(map_goal[1])),
-                status=final,
-                time_s=t,
-                shortest_time_s=shortest,
-                replans=ctrl.replans,
-                final_error_m=error,
-            )
+        outcome = GoalOutcome(
+            index=g,
+            tick=k,
+            true_goal=true_goal,
+            true_start=(start[0], start[1]),
+            map_goal=(float(map_goal[0]), float(map_goal[1])),
+            status=final,
+            time_s=t,
+            shortest_time_s=shortest,
+            replans=ctrl.replans,
+            final_error_m=error,
         )
+        outcomes.append(outcome)
+        hooks.goal_ended(system, outcome)
         if progress is not None:
             progress(system, g + 1, len(goal_ticks))
     arrays = {key: np.asarray(v) for key, v in tr.items()} if trace else {}

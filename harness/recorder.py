@@ -178,6 +178,8 @@ class Recorder(_ClosedOnSuccess):
         Draw the experience map and GTSAM estimate aligned to ground truth (when given).
     world_bounds:
         ``(x0, y0, x1, y1)`` framing the world panel; default: the walls' bounding box.
+    navigation:
+        The default blueprint's goal-navigation panels (:mod:`harness.nav_experiment` logs them).
     application_id, recording_id:
         Rerun identifiers (default recording id: random). The file's content is determined by
         the inputs; its bytes are not (rerun's chunk and row ids are time-based).
@@ -197,6 +199,7 @@ class Recorder(_ClosedOnSuccess):
         world_bounds=None,
         application_id: str = "ratslam-harness",
         recording_id: str | None = None,
+        navigation: bool = False,
     ):
         for name, v in (
             ("every_activity", every_activity),
@@ -220,7 +223,7 @@ class Recorder(_ClosedOnSuccess):
         self.rec = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
         self.rec.set_log_time_enabled(False)  # only the tick and sim_time timelines
         self.rec.set_log_tick_enabled(False)
-        self.rec.save(self._tmp, default_blueprint=default_blueprint(self.grid_shape, world_bounds))
+        self.rec.save(self._tmp, default_blueprint=default_blueprint(self.grid_shape, world_bounds, navigation))
         self._closed = False
         self._lut = _viridis_lut()
         self._buffers = {
@@ -413,15 +416,20 @@ class Recorder(_ClosedOnSuccess):
         for buf in self._buffers.values():
             buf.send(self.rec)
 
-    def close(self) -> Path:
-        """Log the final maps, finish the file and move it to ``path``. Returns ``path``."""
-        if self._closed:
-            return self.path
+    def finish_maps(self) -> None:
+        """Log the maps as they are now at the last logged tick, unless that tick already has
+        them (:meth:`close` does this; call it earlier if the systems change afterwards)."""
         if self._last is not None and self._last_map_tick != self._last[0]:
             k, t, rs, pg = self._last
             if rs is not None:
                 self._log_activity(k, t, rs)
             self._log_maps(k, t, rs, pg, final=True)
+
+    def close(self) -> Path:
+        """Log the final maps, finish the file and move it to ``path``. Returns ``path``."""
+        if self._closed:
+            return self.path
+        self.finish_maps()
         self.flush()
         self.rec.flush()
         self.rec.disconnect()
