@@ -85,7 +85,7 @@ def test_infinity_only_where_declared():
         (lambda: OptimisationConfig(online=np.bool_(True)), "optimisation.online: must be True or False"),
         (lambda: RatSLAMConfig(pose_cells=None), "pose_cells: must be a PoseCellConfig, got None"),
         (lambda: PoseCellConfig(nx=5, ny=5, n_theta=5), "pose_cells.excite_radius_cells/inhibit_radius_cells/"),
-        (lambda: ReentryFusionConfig(heading_sigma_deg=3.0), "reentry.position_sigma_m/heading_sigma_deg: both 0"),
+        (lambda: ReentryFusionConfig(position_sigma_m=0.0), "reentry.position_sigma_m/heading_sigma_deg: both 0"),
     ],
 )
 def test_both_packages_apply_the_same_rules(make, message):
