@@ -67,8 +67,9 @@ the simulator's own streams get exactly the defaults. The rules:
       Map ATE, seed 0, with the re-entry fusion: 3.01 / 4.06 / 1.60 / 1.63 m (fusion off: 2.41 m
       at 1.37; 1.37 m at 0.75). 0.75 leaves Plaza 1 (0.69 cells per tick) and the simulator
       (0.17) at 0.25 m cells; bigger cells hurt Plaza 1 (below).
-    Re-entry fusion (RatSLAMConfig.reentry; only when the odometry noise departs from the
-      reference, i.e. with the pose graph's revisit-tested noise; the simulator keeps it off):
+    Re-entry fusion (RatSLAMConfig.reentry; on by default with the simulator's noise; rederived
+      only when the odometry noise departs from the reference, with the pose graph's
+      revisit-tested noise):
       reentry.position_sigma_m = closures.sigma_xy_m (the pose graph's closure noise: one scene
       cell), reentry.heading_sigma_deg = one heading cell / sqrt(12) (2.89 deg; measured pose-cell
       heading error at Plaza re-entries 2.0-3.2 deg rms), reentry.odom_speed_noise_m_s /

@@ -73,7 +73,7 @@ def test_packet_speed_is_capped_by_larger_cells():
     rs, _, _ = derive_configs(_drive(16 * 0.3 / 7, 10.0, 4.0))  # 0.69 m per tick
     assert rs.pose_cells.cell_size_m == pytest.approx(16 * 0.3 / 7 / 0.75)
     assert rs.pose_cells.trans_gain == 1.0
-    assert rs.reentry.position_sigma_m == 0.0  # reference odometry noise: fusion off
+    assert rs.reentry == RatSLAMConfig().reentry  # reference odometry noise: the default fusion
 
 
 def test_ground_truth_never_enters_the_derivation():
