@@ -4,7 +4,8 @@ The paper's simulator reports a *scene number* per tick rather than an image. He
 cell is a ``cell_size`` square crossed with a heading sector; each cell is assigned a number
 once per world (``layout_seed``), so the same place always looks the same. Realistic defects:
 
-- aliasing: a fraction of the cells near the route shows the number of a distant cell;
+- aliasing: a fraction of the cells the robot drives through shows the number of a distant cell
+  (pairs drawn among the cells on the route's line, one way round on a lap);
 - look-alike regions (the paper's places B and C): a whole rectangle copies another's numbers;
 - blank cells: nothing recognisable in view, reported as -1;
 - flicker: near a cell border the neighbouring cell's number is sometimes reported;
@@ -36,12 +37,17 @@ class SceneLayout:
     """The fixed assignment of scene numbers to scene cells, over a rectangle of the plane.
 
     ``SceneLayout(world)`` covers a world (origin at 0, 0), with aliasing drawn among the cells
-    seen along its route network; :meth:`over_path` covers the bounding box of a recorded
-    trajectory (a real robot's ground truth), with the driven path as the route.
+    the robot drives through: a ``lap`` world's tour one way round, an ``explore`` world's route
+    network both ways; :meth:`over_path` covers the bounding box of a recorded trajectory (a real
+    robot's ground truth), with the driven path, in its direction, as the route.
     """
 
     def __init__(self, world: World):
-        self._build(world.scenes, (0.0, 0.0), world.size, world.edge_segments())
+        if world.route_mode == "lap" and len(world.tour) > 1:
+            nodes = np.array([world.nodes[n] for n in world.tour], dtype=float)
+            self._build(world.scenes, (0.0, 0.0), world.size, np.stack((nodes[:-1], nodes[1:]), axis=1), True)
+        else:
+            self._build(world.scenes, (0.0, 0.0), world.size, world.edge_segments(), False)
 
     @classmethod
     def over_path(cls, spec, x, y, margin: float = 2.0) -> SceneLayout:
@@ -58,10 +64,10 @@ class SceneLayout:
         edges = np.stack((pts[:-1], pts[1:]), axis=1)
         edges = edges[np.hypot(*(edges[:, 1] - edges[:, 0]).T) > 1e-9]
         layout = cls.__new__(cls)
-        layout._build(spec, origin, size, edges)
+        layout._build(spec, origin, size, edges, True)
         return layout
 
-    def _build(self, s, origin, size, edges: np.ndarray) -> None:
+    def _build(self, s, origin, size, edges: np.ndarray, one_way: bool) -> None:
         self.cell_size = s.cell_size
         self.sectors = s.heading_sectors
         self.origin = (float(origin[0]), float(origin[1]))
@@ -75,10 +81,7 @@ class SceneLayout:
         cx, cy = self.cell_centres()
 
         # Aliasing is defined over the cells the robot sees when driving the route.
-        route_cells = self._route_cells(edges)
-
-        for src_rect, dst_rect in s.lookalikes:
-            self._copy_region(numbers, src_rect, dst_rect)
+        route_cells = self._route_cells(edges, one_way)
 
         blank = rng.random(n_cells) < s.blank_rate
         visible = route_cells[~blank[route_cells]]
@@ -102,12 +105,18 @@ class SceneLayout:
             taken[[i, j]] = True
             self.aliased[[i, j]] = True
             pairs += 1
+        # Look-alike regions last, so that aliasing cannot make two look-alike rooms differ.
+        for src_rect, dst_rect in s.lookalikes:
+            self._copy_region(numbers, src_rect, dst_rect)
         numbers[blank] = NO_SCENE
         self.numbers = numbers
         self.route_cells = route_cells
 
-    def _route_cells(self, edges: np.ndarray) -> np.ndarray:
-        """Scene cells seen along the route edges, in both directions, up to 0.4 m off the line."""
+    def _route_cells(self, edges: np.ndarray, one_way: bool) -> np.ndarray:
+        """Scene cells seen along the route edges, up to 0.15 m off the line (a line on a cell
+        border is driven on either side of it): from a to b only if ``one_way`` (a lap, a
+        recorded path), else both ways. Cells facing against a lap's direction are never seen,
+        so aliasing drawn there would test nothing."""
         cells = []
         for a, b in edges:
             d = b - a
@@ -115,9 +124,9 @@ class SceneLayout:
             u = np.linspace(0.0, 1.0, max(2, int(length / 0.1) + 1))[:, None]
             normal = np.array([-d[1], d[0]]) / length
             heading = np.arctan2(d[1], d[0])
-            for offset in (-0.4, 0.0, 0.4):
+            for offset in (-0.15, 0.0, 0.15):
                 p = a + u * d + offset * normal
-                for th in (heading, heading + np.pi):
+                for th in (heading,) if one_way else (heading, heading + np.pi):
                     cells.append(self.cell_index(p[:, 0], p[:, 1], np.full(len(p), th)))
         return np.unique(np.concatenate(cells))
 
