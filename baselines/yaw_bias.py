@@ -27,7 +27,10 @@ false closures.  This module instead searches the bias, outside the graph:
   minimum of the grid, lowers C by at least ``search_min_gain`` and by ``NOISE_GAIN``
   sqrt(revisits) (what chance revisits can do), and at least two revisits that are inliers
   at b* (r < k) but outliers at b_c, and whose time spans overlap by less than half the
-  shorter, agree on it: one loop, however long, is not enough evidence.
+  shorter, agree on it: one loop, however long, is not enough evidence.  Once a bias is
+  adopted, the cost's minimum moving by half a grid step or more (at most ``REFINE_RAD_S``)
+  refines it when that gains ``search_min_gain``: the evidence for a bias is in, the
+  revisits since say more precisely where it is.
 * The search range must stay below the alias of the loops driven: a loop of T seconds closes
   about as well at b and at b - 360 / T deg/s (a square lap turned by one extra turn still
   closes), and false scenes tip the balance to the alias (measured on small_loop, lap 63 s:
@@ -55,6 +58,8 @@ NOISE_GAIN = 0.5
 revisits move the cost difference of two biases by about 0.3 sqrt(N), so 0.5 sqrt(N) keeps
 chance from adopting a bias (measured: wrong adoptions at 10% false-positive ticks had gains
 of 0.24-0.27 sqrt(N), right ones 0.47-2.7 sqrt(N))."""
+REFINE_RAD_S = math.radians(0.25)
+"""An adopted bias moves by at most this with only ``search_min_gain`` (a refinement)."""
 MAX_PAIR_RECORDS = 2000
 """Most recent revisits whose residual curves are kept for the agreement check."""
 
@@ -189,9 +194,16 @@ class YawBiasSearch:
 
     def _decide(self) -> float | None:
         b, interior = self.best()
-        if not interior or abs(b - self.bias) < self._step:
+        if not interior or abs(b - self.bias) < 0.5 * self._step:
             return None
         gain = self._at(self.cost, self.bias) - self._at(self.cost, b)
+        if self.bias != 0.0 and abs(b - self.bias) <= REFINE_RAD_S:
+            # Refining an adopted bias within its basin: the evidence that there is a bias is
+            # in; the least cost of all revisits so far says where it is.
+            if gain < self._min_gain:
+                return None
+            self.bias = b
+            return b
         if gain < max(self._min_gain, NOISE_GAIN * math.sqrt(self.revisits)):
             return None
         support = [(t0, t1) for t0, t1, r2 in self._pairs if self._at(r2, b) < self._k2 <= self._at(r2, self.bias)]

@@ -75,12 +75,13 @@ def run(stream, config=None):
 
 @pytest.mark.parametrize("bias", [-1.5, 0.7, 1.5, 2.5])
 def test_search_recovers_a_known_bias(bias):
-    """Five laps with a constant bias: adopted once, within 0.1 deg/s of it (measured -0.016 deg/s
-    for every bias), after about 1.5 laps (two revisits that overlap by less than half; measured
-    tick 664, 95 s, laps of 61 s)."""
+    """Five laps with a constant bias: adopted after about 1.5 laps (two revisits that overlap by
+    less than half; measured tick 664, 95 s, laps of 61 s) within 0.1 deg/s of it (measured
+    -0.016 deg/s for every bias), refined once (measured +0.010 deg/s at tick 1946)."""
     s, adopted = search(biased(square_stream(laps=5), bias))
-    assert len(adopted) == 1
-    assert math.degrees(s.bias) == pytest.approx(bias, abs=0.1)
+    assert 1 <= len(adopted) <= 2
+    assert math.degrees(s.bias) == pytest.approx(bias, abs=0.05)
+    assert math.degrees(adopted[0][1]) == pytest.approx(bias, abs=0.1)
     assert 1.2 * 61.0 / DT < adopted[0][0] < 2.0 * 61.0 / DT
 
 
@@ -114,8 +115,8 @@ def test_a_search_range_that_holds_the_loop_alias_picks_it():
     b - 360/T deg/s (a square lap turned by one extra turn still closes), and false scenes then
     tip the balance to the alias.  Measured here (T = 61.3 s): with false positives a 10 deg/s
     range adopts -4.38 deg/s (the alias of 1.5, -4.37), the default range 1.498; small_loop at
-    1.5 deg/s and 2% false positives likewise ends at -4.27 (lap ~63 s) with 10 deg/s, keyframe
-    ATE 2.95 m, and at 1.489 with 3 deg/s, 0.096 m."""
+    1.5 deg/s and 2% false positives likewise ends at -4.24 (lap ~63 s) with 10 deg/s, keyframe
+    ATE 2.95 m, and at 1.486 with 3 deg/s, 0.103 m."""
     stream = with_false_positives(biased(square_stream(laps=5), 1.5), 0.02)
     lap = 4 * (93 + 14) * DT
     wide, _ = search(stream, search_max_rad_s=math.radians(10.0))
@@ -130,8 +131,8 @@ def test_pose_graph_closes_a_biased_loop_by_default():
     slam = run(stream)
     off = run(stream, PoseGraphConfig().replace(yaw_bias={"search": False}))
     assert slam.yaw_bias_rebuilds >= 1
-    assert math.degrees(slam.yaw_bias) == pytest.approx(1.5, abs=0.1)  # measured 1.484
-    assert gt_ate(slam, stream) < 0.15  # measured 0.067
+    assert math.degrees(slam.yaw_bias) == pytest.approx(1.5, abs=0.05)  # measured 1.510
+    assert gt_ate(slam, stream) < 0.12  # measured 0.059
     assert gt_ate(off, stream) > 1.0  # measured 2.81
     assert off.yaw_bias == 0.0 and off.yaw_bias_rebuilds == 0
 
@@ -181,11 +182,11 @@ def test_two_apart():
 @pytest.mark.parametrize(("bias", "fp"), [(1.5, 0.02), (0.0, 0.02)])
 def test_small_loop_15_min(bias, fp):
     """Fig 8's odometric reading at 2% false positives (the issue's target, ATE <= 0.5 m).
-    Measured, seed 0: 1.5 deg/s keyframe ATE 0.096 m, bias 1.489 deg/s (seeds 1/2: 0.371/0.206 m,
-    1.454/1.544 deg/s, hence the seed-0 bound of 0.2 m); no bias: 0.087 m, nothing adopted."""
+    Measured, seed 0: 1.5 deg/s keyframe ATE 0.103 m, bias 1.486 deg/s (seeds 1/2: 0.130/0.118 m,
+    1.492/1.504 deg/s); no bias: 0.087 m, nothing adopted."""
     log = sim_log("small_loop", 900.0, fp, bias)
     slam = run_slam(log, PoseGraphConfig())
-    assert keyframe_ate(slam, log) < 0.2
-    assert math.degrees(slam.yaw_bias) == pytest.approx(bias, abs=0.1)
+    assert keyframe_ate(slam, log) < 0.16
+    assert math.degrees(slam.yaw_bias) == pytest.approx(bias, abs=0.05)
     if bias == 0.0:
         assert slam.yaw_bias_rebuilds == 0
