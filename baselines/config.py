@@ -165,7 +165,8 @@ class OptimisationConfig:
 
 @dataclass(frozen=True)
 class YawBiasConfig:
-    """An estimated constant yaw-rate bias, off by default (docs/configuration.md#pose-graph-yaw-rate-bias)."""
+    """A constant yaw-rate (gyro) bias: searched from revisits by default, or a graph variable
+    (docs/configuration.md#pose-graph-yaw-rate-bias)."""
 
     SECTION: ClassVar[str] = "yaw_bias"
 
@@ -175,6 +176,18 @@ class YawBiasConfig:
     """Zero-mean prior on the bias (0.2 rad/s ~ 11 deg/s)."""
     isam2_relinearize_threshold_rad_s: float = param(1e-4, ge=0)
     """iSAM2 relinearisation threshold of the bias; far below the poses'. See the docs section."""
+    search: bool = True
+    """Search the bias from revisited scene numbers (:mod:`baselines.yaw_bias`); ignored with ``estimate``."""
+    search_max_rad_s: float = param(math.radians(3.0), gt=0)
+    """Largest |bias| searched (3 deg/s). See the docs section."""
+    search_step_rad_s: float = param(math.radians(0.05), gt=0)
+    """Grid step of the search (0.05 deg/s; the minimum is refined by a parabola)."""
+    search_max_span_s: float = param(300.0, gt=0)
+    """Longest time between two sightings of a scene that still scores a revisit."""
+    search_kernel: float = param(3.0, gt=0)
+    """Geman-McClure width (Mahalanobis units) of a revisit's cost; r < this is an inlier."""
+    search_min_gain: float = param(4.0, gt=0)
+    """A bias is adopted only if it lowers the summed revisit cost by at least this."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -186,7 +199,7 @@ class PoseGraphConfig:
 
     The default is what a practitioner picks for aliased, false-positive-prone place labels:
     online (iSAM2) optimisation with a robust (Geman-McClure) loop-closure kernel, no batch pass
-    at the end, no yaw-bias variable (see the sub-configs and ``docs/configuration.md``).
+    at the end, a yaw-rate bias searched from revisits (see the sub-configs and ``docs/configuration.md``).
     """
 
     keyframes: KeyframeConfig = field(default_factory=KeyframeConfig)

@@ -122,14 +122,16 @@ class PoseGraphNavigator:
     def __init__(self, slam: PoseGraphSLAM, goal_radius: float = 1.0):
         self.slam = slam
         self.goal_radius = goal_radius
-        self._cache_key = -1
+        self._cache_key: tuple[int, int] = (-1, -1)
         self._poses = np.zeros((0, 3))
 
     def _keyframe_poses(self) -> np.ndarray:
-        # The estimate changes only when a keyframe joins the graph: extract it once per keyframe.
-        if self._cache_key != self.slam.num_keyframes:
+        # The estimate changes only when a keyframe joins the graph or the graph is rebuilt with a
+        # searched yaw-rate bias: extract it once per keyframe and rebuild.
+        key = (self.slam.num_keyframes, self.slam.yaw_bias_rebuilds)
+        if self._cache_key != key:
             self._poses = self.slam.keyframe_poses
-            self._cache_key = self.slam.num_keyframes
+            self._cache_key = key
         return self._poses
 
     @property

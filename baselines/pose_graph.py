@@ -7,7 +7,10 @@ number was seen at earlier keyframes, add a loop-closure factor to the nearest
 such sighting (closures are handed to iSAM2 a few keyframes at a time, at once if
 one contradicts the estimate; keyframes with only odometry wait for the next
 update, up to ``optimisation.odometry_batch_keyframes``); optimise online with iSAM2 (robust,
-Gaussian or GNC-verified closures).  The SLAM never sees ground truth.
+Gaussian or GNC-verified closures).  A constant yaw-rate bias is either a graph variable
+(``yaw_bias.estimate``) or, by default, searched from revisited scene numbers
+(:mod:`baselines.yaw_bias`): when one is adopted the graph is rebuilt from the stored ticks
+with the corrected odometry.  The SLAM never sees ground truth.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from .factors import (
 )
 from .odometry import TickBuffer, integrate, relative_covariance
 from .optimizers import batch_lm, make_isam2, run_gnc
+from .yaw_bias import YawBiasSearch
 
 BIAS_KEY = B(0)
 
@@ -54,6 +58,29 @@ class PoseGraphSLAM:
         self._kernel = robust_kernel(cfg)
         # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
         self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
+        yb = cfg.yaw_bias
+        self._search: YawBiasSearch | None = None
+        if yb.search and not yb.estimate:
+            self._search = YawBiasSearch(
+                yb.search_max_rad_s,
+                yb.search_step_rad_s,
+                yb.search_max_span_s,
+                cfg.closures.min_travel_m,
+                cfg.closures.sigma_xy_m,
+                cfg.closures.sigma_theta_rad,
+                yb.search_kernel,
+                yb.search_min_gain,
+            )
+        self._ticks: list[tuple[float, float, float, int]] = []  # every tick, for a rebuild
+        self._rebuilds = 0
+        # The map frame read out: the graph's own frame, moved after a rebuild onto the frame
+        # the map had before it (:meth:`_rebuild`).
+        self._frame = gtsam.Pose2()
+        self._reset(0.0)
+
+    def _reset(self, bias: float) -> None:
+        """An empty graph whose odometry is corrected by the yaw-rate bias ``bias`` (rad/s)."""
+        cfg = self._config
         self._scenes = SceneIndex(
             cfg.closures.min_travel_m,
             cfg.closures.max_candidates,
@@ -71,7 +98,7 @@ class PoseGraphSLAM:
         self._time = 0.0
         self._path = 0.0
         self._prev_scene = -1
-        self._bias = 0.0
+        self._bias = bias
         self._latest = gtsam.Pose2()
         # keyframes
         self._kf_ticks: list[int] = []
@@ -106,6 +133,32 @@ class PoseGraphSLAM:
         if dt < 0.0:
             raise ValueError(f"step: dt must be non-negative, got {dt}")
         scene = _scene_number(scene_id)
+        self._advance(dt, v, w, scene)
+        if self._search is not None:
+            self._ticks.append((dt, v, w, scene))
+            bias = self._search.add(dt, v, w, scene)
+            if bias is not None:
+                self._rebuild(bias)
+
+    def _rebuild(self, bias: float) -> None:
+        """Adopt a searched yaw-rate bias.
+
+        The graph is built anew from every tick so far with the corrected odometry (keyframes,
+        closures and iSAM2 alike: the same code path as the first time).  Its frame is then laid
+        onto the map's frame before the rebuild (the SE(2) least-squares fit of the new keyframe
+        positions to the old estimate at the same ticks), so the map the user holds does not
+        turn or shift as a whole at the correction; only its shape changes.
+        """
+        old_ticks, old_xy = self.keyframe_ticks, self.keyframe_poses[:, :2]
+        self._rebuilds += 1
+        self._reset(bias)
+        for dt, v, w, scene in self._ticks:
+            self._advance(dt, v, w, scene)
+        new_ticks, new_xy = self.keyframe_ticks, self._graph_poses()[:, :2]
+        at_ticks = np.stack([np.interp(new_ticks, old_ticks, old_xy[:, c]) for c in (0, 1)], axis=1)
+        self._frame = _fit_se2(new_xy, at_ticks)
+
+    def _advance(self, dt: float, v: float, w: float, scene: int) -> None:
         self._batch = None
         step_index = self._tick
         self._tick += 1
@@ -176,7 +229,7 @@ class PoseGraphSLAM:
                 X(prev), X(j), BIAS_KEY, odo, odometry_noise(cov)
             )
         else:
-            z = gtsam.Pose2(*integrate(dt, v, w))
+            z = gtsam.Pose2(*integrate(dt, v, w, self._bias))
             odo_factor = gtsam.BetweenFactorPose2(X(prev), X(j), z, odometry_noise(cov))
         guess = self._latest.compose(z)
         new_values = gtsam.Values()
@@ -475,17 +528,36 @@ class PoseGraphSLAM:
         if not self._kf_ticks:
             return (0.0, 0.0, 0.0)
         buf = self._buffer
-        p = self._latest.compose(gtsam.Pose2(buf.x, buf.y, buf.theta))
+        p = self._frame.compose(self._latest).compose(gtsam.Pose2(buf.x, buf.y, buf.theta))
         return (p.x(), p.y(), p.theta())
 
     @property
     def yaw_bias(self) -> float:
-        """Current yaw-rate bias estimate (rad/s); 0 unless ``yaw_bias.estimate``."""
+        """Current yaw-rate bias estimate (rad/s): the graph variable's (``yaw_bias.estimate``), the
+        searched one (``yaw_bias.search``, 0 until one is adopted), else 0."""
         return self._bias
+
+    @property
+    def yaw_bias_rebuilds(self) -> int:
+        """How often a searched yaw-rate bias was adopted (each rebuilds the graph)."""
+        return self._rebuilds
 
     @property
     def keyframe_poses(self) -> np.ndarray:
         """(K, 3) current optimised (x, y, theta) of every keyframe."""
+        poses = self._graph_poses()
+        f = self._frame
+        if len(poses) == 0 or f.equals(gtsam.Pose2(), 0.0):
+            return poses
+        c, s = math.cos(f.theta()), math.sin(f.theta())
+        out = np.empty_like(poses)
+        out[:, 0] = f.x() + c * poses[:, 0] - s * poses[:, 1]
+        out[:, 1] = f.y() + s * poses[:, 0] + c * poses[:, 1]
+        out[:, 2] = poses[:, 2] + f.theta()
+        return out
+
+    def _graph_poses(self) -> np.ndarray:
+        """(K, 3) keyframe estimates in the graph's own frame."""
         if not self._kf_ticks:
             return np.zeros((0, 3))
         return np.asarray(gtsam.utilities.extractPose2(self._current_values()), dtype=float).reshape(-1, 3)
@@ -558,6 +630,19 @@ class PoseGraphSLAM:
     def num_keyframes(self) -> int:
         """Number of keyframes so far."""
         return len(self._kf_ticks)
+
+
+def _fit_se2(src: np.ndarray, dst: np.ndarray) -> gtsam.Pose2:
+    """The rotation and translation (no scale) that best map points ``src`` onto ``dst``
+    (least squares, Umeyama / Kabsch in 2D)."""
+    if len(src) < 2:
+        return gtsam.Pose2()
+    ms, md = src.mean(axis=0), dst.mean(axis=0)
+    a, b = src - ms, dst - md
+    angle = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
+    c, s = math.cos(angle), math.sin(angle)
+    t = md - np.array([c * ms[0] - s * ms[1], s * ms[0] + c * ms[1]])
+    return gtsam.Pose2(float(t[0]), float(t[1]), angle)
 
 
 def _scene_number(scene_id) -> int:

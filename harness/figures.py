@@ -333,15 +333,18 @@ def _bias_figure(name: str, bias: float) -> Figure:
             "keep the wheel odometry); the 'odometric' variant puts the bias in the odometry itself, seen "
             "by every consumer; 'odometric_bias_var' is the same stream with the pose graph estimating a "
             "constant yaw-rate bias variable, as a practitioner would for a gyro bias. A lap takes ~65 s, "
-            "so 1.5 / 3 / 6 deg/s add ~100 / 195 / 390 deg of heading per lap: without the bias "
-            "variable the pose graph's wrapped angle residuals cannot close a loop whose heading error "
+            "so 1.5 / 3 / 6 deg/s add ~100 / 195 / 390 deg of heading per lap: with raw odometry "
+            "the pose graph's wrapped angle residuals cannot close a loop whose heading error "
             "has grown that far, while each of RatSLAM's experience transitions (about 1 m) carries only "
-            "a few degrees of it. The variants' tables show which system closes the loop at this bias. "
+            "a few degrees of it. In the 'odometric' variant the pose graph's default searches a constant "
+            "bias within +-3 deg/s from revisited scenes and, once two revisits agree on one, rebuilds its "
+            "graph with corrected odometry (baselines/yaw_bias.py); at 3 deg/s and beyond (Figs 9, 10) "
+            "a lap's heading error passes 180 deg and the bias is confused with its alias b - 360/lap. "
             "In the odometric variants RatSLAM's re-entries take the pose cells' pose alone (reentry fusion "
             "off; the relocalisation bound stays): the default fusion trusts the odometry until its "
             "innovations show the bias over a window of re-entries, and the links laid in that time bend "
             "the map (Fig 8 seed 0, before aliasing lay on the lap: experience map 0.57 m with the fusion, "
-            "0.12 m without; odometry 3.2 m)."
+            "0.12 m without; odometry 3.2 m). The variants' tables show which system closes the loop at this bias."
         ),
     )
 

@@ -142,11 +142,13 @@ def test_yaw_bias_3deg_needs_the_bias_variable():
     resolves); with the bias estimated in the graph the robust back-end closes the
     loop and recovers the bias.  Measured (seed 0): odometry 3.10 m; gaussian 3.09,
     robust 3.12, gnc 3.12 m; robust + bias 0.091 m with b = 2.995 deg/s
-    (seeds 1/2: 0.104/0.114 m, 3.001/3.013 deg/s).
+    (seeds 1/2: 0.104/0.114 m, 3.001/3.013 deg/s).  With the default searched bias
+    (issue 13; +-3 deg/s, baselines/yaw_bias.py) gaussian and robust adopt the lap's alias
+    -2.75 deg/s (3 - 360/63) and stay near odometry: 2.96 m each.
     """
     odo = odometry_ate(*LOOP, bias=3.0)
     for backend in ("gaussian", "robust"):
-        assert ate(*LOOP, 0.0, backend, bias=3.0) > 0.8 * odo  # measured ratios 1.00, 1.01
+        assert ate(*LOOP, 0.0, backend, bias=3.0) > 0.8 * odo  # measured ratios 0.96, 0.96
     slam, log = result(*LOOP, 0.0, "robust", bias=3.0, estimate_bias=True)
     assert keyframe_ate(slam, log) < 0.15  # measured 0.091
     assert np.degrees(slam.yaw_bias) == pytest.approx(3.0, abs=0.05)  # measured 2.995

@@ -1,0 +1,226 @@
+"""A constant yaw-rate (gyro) bias searched from the odometry of repeated scene numbers.
+
+The pose graph's wrapped heading residuals cannot close a loop whose heading error has grown
+past about 180 deg (1.5 deg/s over a 72 s lap is already 108 deg; see the traps in DESIGN.md),
+and the estimated bias *variable* (``yaw_bias.estimate``) is pulled into a wrong basin by a few
+false closures.  This module instead searches the bias, outside the graph:
+
+* The stream is cut into short chunks (at every scene onset, and at most
+  ``CHUNK_MAX_S`` seconds long).  For every candidate bias b on a grid
+  (``-search_max_rad_s .. +search_max_rad_s`` in steps of ``search_step_rad_s``) the raw
+  odometry re-integrated with ``(w - b)`` is kept as a prefix sum of complex chord vectors,
+  so the relative pose between any two chunk ends is O(1) per candidate:
+  the chord of chunk m, measured in its start frame, is turned by the corrected heading
+  ``Theta_m - b (t_m + tau_m / 2)`` (the bias bends a chunk of duration tau_m by b tau_m;
+  its chord turns by half of that to first order).
+* A *revisit* is a scene onset (the first tick of a scene number, -1 excluded) whose scene
+  number had an onset at least ``closures.min_travel_m`` of path and at most
+  ``search_max_span_s`` seconds earlier.  Re-integrated with b, the loop between the two
+  sightings should close: its residual ``r^2(b) = |dp|^2 / s_xy^2 + wrap(dtheta)^2 / s_th^2``
+  uses the closures' own sigmas (one scene cell, one heading sector).
+* Each revisit (a pair of sightings: an onset with several earlier sightings in range makes
+  several) scores ``rho(b) = r^2 / (k^2 + r^2)`` (Geman-McClure, capped at 1), so a
+  false-positive or aliased scene costs at most 1 whatever b is, and the cost ``C(b)`` summed
+  over revisits is minimised.  (Keeping only an onset's best sighting instead lets loops of
+  n laps alias: a 3-lap revisit closes at b - 360 / (3 T), and false positives then pick it.)
+* A bias b* is adopted (replacing the current b_c, 0 at first) only when it is an interior
+  minimum of the grid, lowers C by at least ``search_min_gain`` and by ``NOISE_GAIN``
+  sqrt(revisits) (what chance revisits can do), and at least two revisits that are inliers
+  at b* (r < k) but outliers at b_c, and whose time spans overlap by less than half the
+  shorter, agree on it: one loop, however long, is not enough evidence.  Once a bias is
+  adopted, the cost's minimum moving by half a grid step or more (at most ``REFINE_RAD_S``)
+  refines it when that gains ``search_min_gain``: the evidence for a bias is in, the
+  revisits since say more precisely where it is.
+* The search range must stay below the alias of the loops driven: a loop of T seconds closes
+  about as well at b and at b - 360 / T deg/s (a square lap turned by one extra turn still
+  closes), and false scenes tip the balance to the alias (measured on small_loop, lap 63 s:
+  1.5 deg/s with a 10 deg/s range adopts -4.2).  Hence the default 3 deg/s.
+
+The pose graph then rebuilds itself from the stored ticks with the corrected odometry (see
+``PoseGraphSLAM._rebuild``).  Only odometry and scene numbers are used, never ground
+truth; everything is a deterministic function of the stream.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from .odometry import integrate
+
+CHUNK_MAX_S = 1.0
+"""Longest chunk (s): keeps the bias's bend of a chunk small (10 deg/s bends 1 s by 10 deg)."""
+NOISE_GAIN = 0.5
+"""The gain must also reach this times sqrt(revisits): N chance (false-positive or aliased)
+revisits move the cost difference of two biases by about 0.3 sqrt(N), so 0.5 sqrt(N) keeps
+chance from adopting a bias (measured: wrong adoptions at 10% false-positive ticks had gains
+of 0.24-0.27 sqrt(N), right ones 0.47-2.7 sqrt(N))."""
+REFINE_RAD_S = math.radians(0.25)
+"""An adopted bias moves by at most this with only ``search_min_gain`` (a refinement)."""
+MAX_PAIR_RECORDS = 2000
+"""Most recent revisits whose residual curves are kept for the agreement check."""
+
+
+@dataclass(frozen=True)
+class _Onset:
+    scene: int
+    time: float
+    path: float
+    row: int  # index of the chunk end (prefix row) at the onset
+
+
+class YawBiasSearch:
+    """Grid search of a constant yaw-rate bias from revisited scene numbers.
+
+    Feed every tick with :meth:`add`; it returns a bias (rad/s) when one is adopted, else
+    None.  ``bias`` is the adopted bias (0 until one is).
+    """
+
+    def __init__(
+        self,
+        max_rad_s: float,
+        step_rad_s: float,
+        max_span_s: float,
+        min_travel_m: float,
+        sigma_xy_m: float,
+        sigma_theta_rad: float,
+        kernel: float,
+        min_gain: float,
+    ) -> None:
+        n = int(math.floor(max_rad_s / step_rad_s + 1e-9))
+        self.grid = step_rad_s * np.arange(-n, n + 1, dtype=float)
+        self._step = step_rad_s
+        self._max_span = max_span_s
+        self._min_travel = min_travel_m
+        self._inv_sxy2 = 1.0 / sigma_xy_m**2
+        self._inv_sth2 = 1.0 / sigma_theta_rad**2
+        self._k2 = kernel**2
+        self._min_gain = min_gain
+        self.cost = np.zeros_like(self.grid)  # C(b) over the grid
+        self.revisits = 0  # onsets that scored (had an earlier sighting in range)
+        self.bias = 0.0
+        self._time = 0.0
+        self._path = 0.0
+        self._theta = 0.0  # raw (uncorrected) integrated heading
+        self._prev_scene = -1
+        self._chunk: tuple[list[float], list[float], list[float]] = ([], [], [])
+        self._chunk_start = 0.0
+        self._prefix = np.zeros(len(self.grid), dtype=complex)
+        # prefix rows kept only as far back as a revisit can reach: row -> (sum, theta, time)
+        self._rows: deque[tuple[int, np.ndarray, float, float]] = deque()
+        self._rows.append((0, self._prefix.copy(), 0.0, 0.0))
+        self._row = 0
+        self._onsets: dict[int, deque[_Onset]] = {}
+        self._pairs: deque[tuple[float, float, np.ndarray]] = deque(maxlen=MAX_PAIR_RECORDS)
+
+    # ---------------------------------------------------------------- feeding
+    def add(self, dt: float, v: float, w: float, scene: int) -> float | None:
+        """One tick (raw odometry, scene number after it); a newly adopted bias or None."""
+        dts, vs, ws = self._chunk
+        dts.append(dt)
+        vs.append(v)
+        ws.append(w)
+        self._time += dt
+        self._path += abs(v * dt)
+        onset = scene != -1 and scene != self._prev_scene
+        self._prev_scene = scene
+        if onset or self._time - self._chunk_start >= CHUNK_MAX_S:
+            self._close_chunk()
+        if not onset:
+            return None
+        return self._onset(scene)
+
+    def _close_chunk(self) -> None:
+        dts, vs, ws = self._chunk
+        dx, dy, dth = integrate(np.asarray(dts), np.asarray(vs), np.asarray(ws))
+        tau = self._time - self._chunk_start
+        # chord in the chunk's start frame, turned by the corrected heading at the chunk's middle
+        phase = self._theta - self.grid * (self._chunk_start + 0.5 * tau)
+        self._prefix = self._prefix + complex(dx, dy) * np.exp(1j * phase)
+        self._theta += float(dth)
+        self._row += 1
+        self._rows.append((self._row, self._prefix, self._theta, self._time))
+        while self._rows and self._rows[0][3] < self._time - self._max_span:
+            self._rows.popleft()
+        self._chunk = ([], [], [])
+        self._chunk_start = self._time
+
+    def _onset(self, scene: int) -> float | None:
+        here = _Onset(scene, self._time, self._path, self._row)
+        earlier = self._onsets.setdefault(scene, deque())
+        while earlier and earlier[0].time < self._time - self._max_span:
+            earlier.popleft()
+        first_row = self._rows[0][0]
+        scored = 0
+        for prev in earlier:
+            if self._path - prev.path < self._min_travel or prev.row < first_row:
+                continue
+            r2 = self._residual2(prev)
+            self._pairs.append((prev.time, self._time, r2))
+            self.cost += r2 / (self._k2 + r2)
+            scored += 1
+        earlier.append(here)
+        if not scored:
+            return None
+        self.revisits += scored
+        return self._decide()
+
+    def _residual2(self, prev: _Onset) -> np.ndarray:
+        """r^2(b) over the grid for the loop from ``prev`` to the current chunk end."""
+        _, p0, th0, t0 = self._rows[prev.row - self._rows[0][0]]
+        rel = (self._prefix - p0) * np.exp(-1j * (th0 - self.grid * t0))
+        dth = (self._theta - th0) - self.grid * (self._time - t0)
+        dth = (dth + math.pi) % (2.0 * math.pi) - math.pi
+        return (rel.real**2 + rel.imag**2) * self._inv_sxy2 + dth**2 * self._inv_sth2
+
+    # ---------------------------------------------------------------- deciding
+    def best(self) -> tuple[float, bool]:
+        """The grid bias of least cost (ties to the smaller |b|), refined by a parabola, and
+        whether it is an interior minimum (one at the edge of the range may lie beyond it)."""
+        c = self.cost
+        i = int(np.lexsort((np.abs(self.grid), c))[0])
+        if 0 < i < len(c) - 1:
+            den = c[i - 1] - 2.0 * c[i] + c[i + 1]
+            if den > 0.0:
+                return float(self.grid[i] + 0.5 * self._step * (c[i - 1] - c[i + 1]) / den), True
+            return float(self.grid[i]), True
+        return float(self.grid[i]), False
+
+    def _at(self, curve: np.ndarray, b: float) -> float:
+        return float(np.interp(b, self.grid, curve))
+
+    def _decide(self) -> float | None:
+        b, interior = self.best()
+        if not interior or abs(b - self.bias) < 0.5 * self._step:
+            return None
+        gain = self._at(self.cost, self.bias) - self._at(self.cost, b)
+        if self.bias != 0.0 and abs(b - self.bias) <= REFINE_RAD_S:
+            # Refining an adopted bias within its basin: the evidence that there is a bias is
+            # in; the least cost of all revisits so far says where it is.
+            if gain < self._min_gain:
+                return None
+            self.bias = b
+            return b
+        if gain < max(self._min_gain, NOISE_GAIN * math.sqrt(self.revisits)):
+            return None
+        support = [(t0, t1) for t0, t1, r2 in self._pairs if self._at(r2, b) < self._k2 <= self._at(r2, self.bias)]
+        if not _two_apart(support):
+            return None
+        self.bias = b
+        return b
+
+
+def _two_apart(spans: list[tuple[float, float]]) -> bool:
+    """Whether two of the time spans overlap by less than half the shorter of the two."""
+    if len(spans) < 2:
+        return False
+    a = np.asarray(spans, dtype=float)
+    s, e = a[:, 0], a[:, 1]
+    overlap = np.maximum(0.0, np.minimum(e[:, None], e[None, :]) - np.maximum(s[:, None], s[None, :]))
+    shorter = np.minimum((e - s)[:, None], (e - s)[None, :])
+    apart = overlap < 0.5 * shorter
+    np.fill_diagonal(apart, False)
+    return bool(apart.any())
