@@ -22,6 +22,11 @@ import numpy as np
 from .world import World
 
 NO_SCENE = -1
+# How far off a route's line the robot is seen driving: the simulator's robot follows its line
+# (0.15 m: a line on a cell border is driven on either side of it); a real vehicle's recorded
+# path stands for a lane.
+ROUTE_HALF_WIDTH = 0.15
+PATH_HALF_WIDTH = 0.4
 
 
 @dataclass(frozen=True)
@@ -39,15 +44,17 @@ class SceneLayout:
     ``SceneLayout(world)`` covers a world (origin at 0, 0), with aliasing drawn among the cells
     the robot drives through: a ``lap`` world's tour one way round, an ``explore`` world's route
     network both ways; :meth:`over_path` covers the bounding box of a recorded trajectory (a real
-    robot's ground truth), with the driven path, in its direction, as the route.
+    robot's ground truth), with the driven path as the route (both ways: a vehicle drives its
+    roads in either direction).
     """
 
     def __init__(self, world: World):
         if world.route_mode == "lap" and len(world.tour) > 1:
             nodes = np.array([world.nodes[n] for n in world.tour], dtype=float)
-            self._build(world.scenes, (0.0, 0.0), world.size, np.stack((nodes[:-1], nodes[1:]), axis=1), True)
+            edges = np.stack((nodes[:-1], nodes[1:]), axis=1)
+            self._build(world.scenes, (0.0, 0.0), world.size, edges, True, ROUTE_HALF_WIDTH)
         else:
-            self._build(world.scenes, (0.0, 0.0), world.size, world.edge_segments(), False)
+            self._build(world.scenes, (0.0, 0.0), world.size, world.edge_segments(), False, ROUTE_HALF_WIDTH)
 
     @classmethod
     def over_path(cls, spec, x, y, margin: float = 2.0) -> SceneLayout:
@@ -64,10 +71,10 @@ class SceneLayout:
         edges = np.stack((pts[:-1], pts[1:]), axis=1)
         edges = edges[np.hypot(*(edges[:, 1] - edges[:, 0]).T) > 1e-9]
         layout = cls.__new__(cls)
-        layout._build(spec, origin, size, edges, True)
+        layout._build(spec, origin, size, edges, False, PATH_HALF_WIDTH)
         return layout
 
-    def _build(self, s, origin, size, edges: np.ndarray, one_way: bool) -> None:
+    def _build(self, s, origin, size, edges: np.ndarray, one_way: bool, half_width: float) -> None:
         self.cell_size = s.cell_size
         self.sectors = s.heading_sectors
         self.origin = (float(origin[0]), float(origin[1]))
@@ -81,7 +88,7 @@ class SceneLayout:
         cx, cy = self.cell_centres()
 
         # Aliasing is defined over the cells the robot sees when driving the route.
-        route_cells = self._route_cells(edges, one_way)
+        route_cells = self._route_cells(edges, one_way, half_width)
 
         blank = rng.random(n_cells) < s.blank_rate
         visible = route_cells[~blank[route_cells]]
@@ -112,10 +119,9 @@ class SceneLayout:
         self.numbers = numbers
         self.route_cells = route_cells
 
-    def _route_cells(self, edges: np.ndarray, one_way: bool) -> np.ndarray:
-        """Scene cells seen along the route edges, up to 0.15 m off the line (a line on a cell
-        border is driven on either side of it): from a to b only if ``one_way`` (a lap, a
-        recorded path), else both ways. Cells facing against a lap's direction are never seen,
+    def _route_cells(self, edges: np.ndarray, one_way: bool, half_width: float) -> np.ndarray:
+        """Scene cells seen along the route edges, up to ``half_width`` off the line: from a to b
+        only if ``one_way`` (a lap), else both ways. Cells facing against a lap's direction are never seen,
         so aliasing drawn there would test nothing."""
         cells = []
         for a, b in edges:
@@ -124,7 +130,7 @@ class SceneLayout:
             u = np.linspace(0.0, 1.0, max(2, int(length / 0.1) + 1))[:, None]
             normal = np.array([-d[1], d[0]]) / length
             heading = np.arctan2(d[1], d[0])
-            for offset in (-0.15, 0.0, 0.15):
+            for offset in (-half_width, 0.0, half_width):
                 p = a + u * d + offset * normal
                 for th in (heading,) if one_way else (heading, heading + np.pi):
                     cells.append(self.cell_index(p[:, 0], p[:, 1], np.full(len(p), th)))
