@@ -214,6 +214,11 @@ class ExperimentHooks(NavigationHooks):
         if outcome.reached:
             rec.log(f"metrics/nav/{system}/time_ratio", rr.Scalars([outcome.time_ratio]))
 
+    def map_ate(self) -> dict[str, float]:
+        """Each post-exploration map's ATE (m): RatSLAM's experiences against the true poses when
+        they were created, GTSAM's keyframes against the true poses when they were taken."""
+        return {s: a.fit.rmse for s, a in self.align.items() if a.fit is not None}
+
     # ---------------------------------------------------------------- closing
     def close(self) -> None:
         if self.recorder is not None:
@@ -262,8 +267,9 @@ def _at_most(v: float, t: float) -> bool:
     return bool(math.isfinite(v) and v <= t)
 
 
-def experiment_metrics(result: NavigationResult, wall_s: float) -> dict:
-    """metrics.json's content: the result, its claims, timing and provenance."""
+def experiment_metrics(result: NavigationResult, wall_s: float, map_ate: dict | None = None) -> dict:
+    """metrics.json's content: the result, its claims, the post-exploration maps' ATE (``map_ate``:
+    system -> m), timing and provenance."""
     d = result.to_dict()
     return {
         "experiment": "nav",
@@ -273,6 +279,7 @@ def experiment_metrics(result: NavigationResult, wall_s: float) -> dict:
         "n_goals": d["n_goals"],
         "claims": claims(result),
         "summary": {s: v["summary"] for s, v in d["systems"].items()},
+        "exploration_map_ate_m": map_ate or {},
         "goals": {s: v["goals"] for s, v in d["systems"].items()},
         "settings": d["settings"],
         "timing": {"wall_s": wall_s},
@@ -374,6 +381,8 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
     )  # fmt: skip
     for label, f in rows:
         lines.append(f"| {label} | " + " | ".join(f(m["summary"][s]) for s in systems) + " |")
+    ate = m.get("exploration_map_ate_m", {})
+    lines.append("| map ATE after the exploration (m) | " + " | ".join(_fmt(ate.get(s)) for s in systems) + " |")
     lines += ["", "![routes](routes.png)", "", "## Goals", ""]
     lines.append(
         "| goal | true place (m) | shortest (s) | "
@@ -429,7 +438,7 @@ def run_nav_experiment(
             hooks.abort()
             raise
         hooks.close()
-        m = experiment_metrics(result, time.perf_counter() - t0)
+        m = experiment_metrics(result, time.perf_counter() - t0, hooks.map_ate())
         write_json(stage / "metrics.json", _finite(m))
         plot_routes(w, result, hooks.routes, stage / "routes.png")
         write_report(stage, m, recording)

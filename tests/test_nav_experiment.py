@@ -38,6 +38,7 @@ def test_cli_nav_writes_every_file(tmp_path):
         assert {"median_time_ratio", "mean_time_ratio", "replans_total"} <= set(s)
         assert len(m["goals"][system]) == 2
         assert {"status", "time_s", "shortest_time_s", "time_ratio", "replans"} <= set(m["goals"][system][0])
+    assert set(m["exploration_map_ate_m"]) == {"ratslam", "gtsam"}
     assert m["provenance"]["git_commit"] and m["provenance"]["packages"]["numpy"]
     assert m["settings"]["ratslam_config"]["reentry"] and m["settings"]["gtsam_config"]
     report = (out / "report.md").read_text()
