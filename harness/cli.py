@@ -35,6 +35,8 @@ def _cmd_list(args) -> None:
     for name in list_worlds():
         w = load_world(name)
         print(f"  {name:<14} {w.size[0]:g} m x {w.size[1]:g} m, {w.duration / 60:g} min default")
+    print("experiments:")
+    print("  nav            goal navigation on RatSLAM's experience map and GTSAM's pose graph (nav WORLD)")
 
 
 def _cmd_simulate(args) -> None:

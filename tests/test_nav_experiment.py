@@ -2,9 +2,13 @@
 its determinism, and the saved post-exploration map planning as the live one."""
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
+from rerun.chunk import RrdReader
 
 import ratslam.navigation as rnav
 from harness.nav_experiment import run_nav_experiment
@@ -46,6 +50,16 @@ def test_cli_nav_writes_every_file(tmp_path):
     loaded = RatSLAM.load(out / "ratslam_map.npz")
     goal = m["goals"]["ratslam"][0]["map_goal"]
     assert rnav.plan_route(loaded, goal).found
+    rrd = out / "recording.rrd"
+    rerun = Path(sys.executable).parent / "rerun"
+    res = subprocess.run([str(rerun), "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr[-2000:]
+    entities = {c.entity_path for c in RrdReader(rrd).store().stream().to_chunks()}
+    for system in ("ratslam", "gtsam"):
+        for name in ("goal", "route", "driven"):
+            assert f"/world/nav/{system}/{name}" in entities
+        assert f"/metrics/nav/{system}/success_rate" in entities
+    assert {"/pose_cells/nav/route", "/world/ratslam/experiences", "/world/ground_truth"} <= entities
 
 
 @pytest.mark.parametrize(
