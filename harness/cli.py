@@ -195,6 +195,7 @@ def _cmd_nav(args) -> None:
         exploration_s=args.exploration,
         recording=not args.no_recording,
         show_progress=not args.quiet,
+        lookalikes=not args.no_lookalikes,
     )
     m = read_json(out / "metrics.json")
     for name, s in m["summary"].items():
@@ -393,6 +394,11 @@ def build_parser() -> argparse.ArgumentParser:
     nv.add_argument("--exploration", type=float, help="exploration, simulated seconds (default: the world's)")
     nv.add_argument("--out", help="run directory (default: reports/nav_WORLD)")
     nv.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    nv.add_argument(
+        "--no-lookalikes",
+        action="store_true",
+        help="the world's look-alike regions show their own scenes (as Fig 4's default variant)",
+    )
     nv.add_argument("--quiet", action="store_true", help="no progress output")
     nv.set_defaults(func=_cmd_nav)
 

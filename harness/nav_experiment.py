@@ -353,7 +353,12 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
         f"{m['settings']['success_radius_m']:g} m of the goal's place. Time ratio: time to arrival over "
         "the ground-truth shortest route along the world's route network at the robot's cruise speed "
         f"(goals reached only). Timeout: {m['settings']['timeout']}. RatSLAM runs with re-entry fusion "
-        "weighted like the pose graph's closures and odometry (`navigation_ratslam_config`).",
+        "weighted like the pose graph's closures and odometry (`navigation_ratslam_config`). The world's "
+        + (
+            "look-alike regions show the same scenes (the world as shipped)."
+            if m["settings"]["lookalikes"]
+            else "look-alike regions show their own scenes (`--no-lookalikes`)."
+        ),
         "",
         "## Claims",
         "",
@@ -416,9 +421,11 @@ def run_nav_experiment(
     exploration_s: float | None = None,
     recording: bool = True,
     show_progress: bool = True,
+    lookalikes: bool = True,
 ) -> Path:
     """Run the navigation experiment on ``world`` into ``out`` (default ``reports/nav_WORLD``);
-    ``exploration_s`` None: the world's duration. Returns the run directory."""
+    ``exploration_s`` None: the world's duration; ``lookalikes=False``: the world's look-alike
+    regions show their own scenes (as Fig 4's default variant). Returns the run directory."""
     _check(n_goals, exploration_s, seed)
     w = load_world(world)
     exploration = float(w.duration if exploration_s is None else exploration_s)
@@ -432,7 +439,7 @@ def run_nav_experiment(
         try:
             result = run_navigation(
                 w, exploration, n_goals, int(seed), ratslam_config=rs_config, gtsam_config=pg_config, trace=True,
-                progress=progress, hooks=hooks,
+                lookalikes=lookalikes, progress=progress, hooks=hooks,
             )  # fmt: skip
         except BaseException:
             hooks.abort()

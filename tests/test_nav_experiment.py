@@ -89,6 +89,7 @@ def test_nav_experiment_is_deterministic(tmp_path):
             "small_loop", tmp_path / name, seed=3, n_goals=2, exploration_s=90.0, recording=False, show_progress=False
         )
         m = read_json(out / "metrics.json")
+        assert m["settings"]["lookalikes"] is True
         runs.append({k: v for k, v in m.items() if k not in ("timing", "provenance")})
     assert runs[0] == runs[1]
 
@@ -125,3 +126,11 @@ def test_saved_map_plans_as_the_live_one(tmp_path):
         loaded.step(*o)
     assert live.pose == loaded.pose
     same(plans(live), plans(loaded))
+
+
+def test_cli_nav_options():
+    from harness.cli import build_parser
+
+    args = build_parser().parse_args(["nav", "office_floor", "--no-lookalikes", "--goals", "5", "--exploration", "60"])
+    assert (args.no_lookalikes, args.goals, args.exploration, args.seed) == (True, 5, 60.0, 0)
+    assert build_parser().parse_args(["nav", "office_floor"]).no_lookalikes is False
