@@ -35,6 +35,8 @@ def _cmd_list(args) -> None:
     for name in list_worlds():
         w = load_world(name)
         print(f"  {name:<14} {w.size[0]:g} m x {w.size[1]:g} m, {w.duration / 60:g} min default")
+    print("experiments:")
+    print("  nav            goal navigation on RatSLAM's experience map and GTSAM's pose graph (nav WORLD)")
 
 
 def _cmd_simulate(args) -> None:
@@ -193,6 +195,7 @@ def _cmd_nav(args) -> None:
         exploration_s=args.exploration,
         recording=not args.no_recording,
         show_progress=not args.quiet,
+        lookalikes=not args.no_lookalikes,
     )
     m = read_json(out / "metrics.json")
     for name, s in m["summary"].items():
@@ -391,6 +394,11 @@ def build_parser() -> argparse.ArgumentParser:
     nv.add_argument("--exploration", type=float, help="exploration, simulated seconds (default: the world's)")
     nv.add_argument("--out", help="run directory (default: reports/nav_WORLD)")
     nv.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    nv.add_argument(
+        "--no-lookalikes",
+        action="store_true",
+        help="the world's look-alike regions show their own scenes (as Fig 4's default variant)",
+    )
     nv.add_argument("--quiet", action="store_true", help="no progress output")
     nv.set_defaults(func=_cmd_nav)
 

@@ -214,6 +214,11 @@ class ExperimentHooks(NavigationHooks):
         if outcome.reached:
             rec.log(f"metrics/nav/{system}/time_ratio", rr.Scalars([outcome.time_ratio]))
 
+    def map_ate(self) -> dict[str, float]:
+        """Each post-exploration map's ATE (m): RatSLAM's experiences against the true poses when
+        they were created, GTSAM's keyframes against the true poses when they were taken."""
+        return {s: a.fit.rmse for s, a in self.align.items() if a.fit is not None}
+
     # ---------------------------------------------------------------- closing
     def close(self) -> None:
         if self.recorder is not None:
@@ -262,8 +267,9 @@ def _at_most(v: float, t: float) -> bool:
     return bool(math.isfinite(v) and v <= t)
 
 
-def experiment_metrics(result: NavigationResult, wall_s: float) -> dict:
-    """metrics.json's content: the result, its claims, timing and provenance."""
+def experiment_metrics(result: NavigationResult, wall_s: float, map_ate: dict | None = None) -> dict:
+    """metrics.json's content: the result, its claims, the post-exploration maps' ATE (``map_ate``:
+    system -> m), timing and provenance."""
     d = result.to_dict()
     return {
         "experiment": "nav",
@@ -273,6 +279,7 @@ def experiment_metrics(result: NavigationResult, wall_s: float) -> dict:
         "n_goals": d["n_goals"],
         "claims": claims(result),
         "summary": {s: v["summary"] for s, v in d["systems"].items()},
+        "exploration_map_ate_m": map_ate or {},
         "goals": {s: v["goals"] for s, v in d["systems"].items()},
         "settings": d["settings"],
         "timing": {"wall_s": wall_s},
@@ -346,7 +353,12 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
         f"{m['settings']['success_radius_m']:g} m of the goal's place. Time ratio: time to arrival over "
         "the ground-truth shortest route along the world's route network at the robot's cruise speed "
         f"(goals reached only). Timeout: {m['settings']['timeout']}. RatSLAM runs with re-entry fusion "
-        "weighted like the pose graph's closures and odometry (`navigation_ratslam_config`).",
+        "weighted like the pose graph's closures and odometry (`navigation_ratslam_config`). The world's "
+        + (
+            "look-alike regions show the same scenes (the world as shipped)."
+            if m["settings"]["lookalikes"]
+            else "look-alike regions show their own scenes (`--no-lookalikes`)."
+        ),
         "",
         "## Claims",
         "",
@@ -374,6 +386,8 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
     )  # fmt: skip
     for label, f in rows:
         lines.append(f"| {label} | " + " | ".join(f(m["summary"][s]) for s in systems) + " |")
+    ate = m.get("exploration_map_ate_m", {})
+    lines.append("| map ATE after the exploration (m) | " + " | ".join(_fmt(ate.get(s)) for s in systems) + " |")
     lines += ["", "![routes](routes.png)", "", "## Goals", ""]
     lines.append(
         "| goal | true place (m) | shortest (s) | "
@@ -407,9 +421,11 @@ def run_nav_experiment(
     exploration_s: float | None = None,
     recording: bool = True,
     show_progress: bool = True,
+    lookalikes: bool = True,
 ) -> Path:
     """Run the navigation experiment on ``world`` into ``out`` (default ``reports/nav_WORLD``);
-    ``exploration_s`` None: the world's duration. Returns the run directory."""
+    ``exploration_s`` None: the world's duration; ``lookalikes=False``: the world's look-alike
+    regions show their own scenes (as Fig 4's default variant). Returns the run directory."""
     _check(n_goals, exploration_s, seed)
     w = load_world(world)
     exploration = float(w.duration if exploration_s is None else exploration_s)
@@ -423,13 +439,13 @@ def run_nav_experiment(
         try:
             result = run_navigation(
                 w, exploration, n_goals, int(seed), ratslam_config=rs_config, gtsam_config=pg_config, trace=True,
-                progress=progress, hooks=hooks,
+                lookalikes=lookalikes, progress=progress, hooks=hooks,
             )  # fmt: skip
         except BaseException:
             hooks.abort()
             raise
         hooks.close()
-        m = experiment_metrics(result, time.perf_counter() - t0)
+        m = experiment_metrics(result, time.perf_counter() - t0, hooks.map_ate())
         write_json(stage / "metrics.json", _finite(m))
         plot_routes(w, result, hooks.routes, stage / "routes.png")
         write_report(stage, m, recording)

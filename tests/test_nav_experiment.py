@@ -2,9 +2,13 @@
 its determinism, and the saved post-exploration map planning as the live one."""
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
+from rerun.chunk import RrdReader
 
 import ratslam.navigation as rnav
 from harness.nav_experiment import run_nav_experiment
@@ -38,6 +42,7 @@ def test_cli_nav_writes_every_file(tmp_path):
         assert {"median_time_ratio", "mean_time_ratio", "replans_total"} <= set(s)
         assert len(m["goals"][system]) == 2
         assert {"status", "time_s", "shortest_time_s", "time_ratio", "replans"} <= set(m["goals"][system][0])
+    assert set(m["exploration_map_ate_m"]) == {"ratslam", "gtsam"}
     assert m["provenance"]["git_commit"] and m["provenance"]["packages"]["numpy"]
     assert m["settings"]["ratslam_config"]["reentry"] and m["settings"]["gtsam_config"]
     report = (out / "report.md").read_text()
@@ -45,6 +50,16 @@ def test_cli_nav_writes_every_file(tmp_path):
     loaded = RatSLAM.load(out / "ratslam_map.npz")
     goal = m["goals"]["ratslam"][0]["map_goal"]
     assert rnav.plan_route(loaded, goal).found
+    rrd = out / "recording.rrd"
+    rerun = Path(sys.executable).parent / "rerun"
+    res = subprocess.run([str(rerun), "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr[-2000:]
+    entities = {c.entity_path for c in RrdReader(rrd).store().stream().to_chunks()}
+    for system in ("ratslam", "gtsam"):
+        for name in ("goal", "route", "driven"):
+            assert f"/world/nav/{system}/{name}" in entities
+        assert f"/metrics/nav/{system}/success_rate" in entities
+    assert {"/pose_cells/nav/route", "/world/ratslam/experiences", "/world/ground_truth"} <= entities
 
 
 @pytest.mark.parametrize(
@@ -74,6 +89,7 @@ def test_nav_experiment_is_deterministic(tmp_path):
             "small_loop", tmp_path / name, seed=3, n_goals=2, exploration_s=90.0, recording=False, show_progress=False
         )
         m = read_json(out / "metrics.json")
+        assert m["settings"]["lookalikes"] is True
         runs.append({k: v for k, v in m.items() if k not in ("timing", "provenance")})
     assert runs[0] == runs[1]
 
@@ -110,3 +126,11 @@ def test_saved_map_plans_as_the_live_one(tmp_path):
         loaded.step(*o)
     assert live.pose == loaded.pose
     same(plans(live), plans(loaded))
+
+
+def test_cli_nav_options():
+    from harness.cli import build_parser
+
+    args = build_parser().parse_args(["nav", "office_floor", "--no-lookalikes", "--goals", "5", "--exploration", "60"])
+    assert (args.no_lookalikes, args.goals, args.exploration, args.seed) == (True, 5, 60.0, 0)
+    assert build_parser().parse_args(["nav", "office_floor"]).no_lookalikes is False
