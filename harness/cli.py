@@ -397,7 +397,7 @@ def build_parser() -> argparse.ArgumentParser:
     nv.add_argument(
         "--no-lookalikes",
         action="store_true",
-        help="the world's look-alike regions show their own scenes (as Fig 4's default variant)",
+        help="the world's look-alike regions show their own scenes (as Fig 4's distinct_rooms variant)",
     )
     nv.add_argument("--quiet", action="store_true", help="no progress output")
     nv.set_defaults(func=_cmd_nav)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from baselines import PoseGraphConfig, YawBiasConfig
-from ratslam import PoseCellConfig, RatSLAMConfig
+from ratslam import PAPER_REENTRIES, PoseCellConfig, RatSLAMConfig
 from worlds import ObservationLog, World, load_world, simulate
 from worlds.files import atomic_open, write_tum
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
@@ -100,8 +100,10 @@ def _configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLA
     rs = RatSLAMConfig(
         pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth, path_integration_bias_deg_s=variant.pi_bias)
     )
-    if not variant.reentry_fusion:
+    if variant.reentries == "unfused":
         rs = rs.replace(reentry={"position_sigma_m": 0.0, "heading_sigma_deg": 0.0})
+    elif variant.reentries == "paper":
+        rs = rs.replace(**PAPER_REENTRIES)
     pg = PoseGraphConfig(yaw_bias=YawBiasConfig(estimate=variant.gtsam_yaw_bias))
     if variant.derived_scale:
         return derive_configs(log, rs, pg)

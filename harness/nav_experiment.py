@@ -425,7 +425,7 @@ def run_nav_experiment(
 ) -> Path:
     """Run the navigation experiment on ``world`` into ``out`` (default ``reports/nav_WORLD``);
     ``exploration_s`` None: the world's duration; ``lookalikes=False``: the world's look-alike
-    regions show their own scenes (as Fig 4's default variant). Returns the run directory."""
+    regions show their own scenes (as Fig 4's distinct_rooms variant). Returns the run directory."""
     _check(n_goals, exploration_s, seed)
     w = load_world(world)
     exploration = float(w.duration if exploration_s is None else exploration_s)
