@@ -61,16 +61,7 @@ class PoseGraphSLAM:
         yb = cfg.yaw_bias
         self._search: YawBiasSearch | None = None
         if yb.search and not yb.estimate:
-            self._search = YawBiasSearch(
-                yb.search_max_rad_s,
-                yb.search_step_rad_s,
-                yb.search_max_span_s,
-                cfg.closures.min_travel_m,
-                cfg.closures.sigma_xy_m,
-                cfg.closures.sigma_theta_rad,
-                yb.search_kernel,
-                yb.search_min_gain,
-            )
+            self._search = YawBiasSearch.from_config(cfg)
         self._ticks: list[tuple[float, float, float, int]] = []  # every tick, for a rebuild
         self._rebuilds = 0
         # The map frame read out: the graph's own frame, moved after a rebuild onto the frame

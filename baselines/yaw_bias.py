@@ -46,10 +46,14 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .odometry import integrate
+
+if TYPE_CHECKING:
+    from .config import PoseGraphConfig
 
 CHUNK_MAX_S = 1.0
 """Longest chunk (s): keeps the bias's bend of a chunk small (10 deg/s bends 1 s by 10 deg)."""
@@ -78,6 +82,22 @@ class YawBiasSearch:
     Feed every tick with :meth:`add`; it returns a bias (rad/s) when one is adopted, else
     None.  ``bias`` is the adopted bias (0 until one is).
     """
+
+    @classmethod
+    def from_config(cls, cfg: PoseGraphConfig) -> YawBiasSearch:
+        """The search a pose graph of configuration ``cfg`` runs (its ``yaw_bias`` fields, and
+        its closures' travel and sigmas to score revisits by)."""
+        yb, lc = cfg.yaw_bias, cfg.closures
+        return cls(
+            yb.search_max_rad_s,
+            yb.search_step_rad_s,
+            yb.search_max_span_s,
+            lc.min_travel_m,
+            lc.sigma_xy_m,
+            lc.sigma_theta_rad,
+            yb.search_kernel,
+            yb.search_min_gain,
+        )
 
     def __init__(
         self,

@@ -36,18 +36,7 @@ def with_false_positives(stream, rate, seed=1):
 
 
 def search(stream, **changes):
-    yb = PoseGraphConfig().replace(yaw_bias=changes).yaw_bias
-    cfg = PoseGraphConfig()
-    s = YawBiasSearch(
-        yb.search_max_rad_s,
-        yb.search_step_rad_s,
-        yb.search_max_span_s,
-        cfg.closures.min_travel_m,
-        cfg.closures.sigma_xy_m,
-        cfg.closures.sigma_theta_rad,
-        yb.search_kernel,
-        yb.search_min_gain,
-    )
+    s = YawBiasSearch.from_config(PoseGraphConfig().replace(yaw_bias=changes))
     adopted = []
     dt, v, w, scene, _ = stream
     for k, (a, b, c, d) in enumerate(zip(dt, v, w, scene)):
