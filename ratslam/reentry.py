@@ -24,7 +24,7 @@ pose at tick m, in the dead-reckoning frame, is::
     Σ_xy = -Σ q_w (x_n - x_k)(y_n - y_k) + Σ q_v cos θ_k sin θ_k
 
 summed over m < k <= n; expanding the squares leaves nine running sums of the dead-reckoned
-positions (``_SUMS``), so the covariance between any two ticks is a difference of sums.
+positions (``N_SUMS``), so the covariance between any two ticks is a difference of sums.
 """
 
 from __future__ import annotations
