@@ -12,7 +12,14 @@ projection onto the route ahead (within ``window_m``; of projections about as ne
 nearest, the one furthest along, so a route that starts behind the robot, at a stale current
 experience or at keyframes just driven, is skipped rather than driven back); it steers for the
 route point ``lookahead_m`` beyond, turning on the spot beyond 60 degrees of heading error, like
-the exploring robot. Arrival: the pose within ``arrive_m`` of the goal point.
+the exploring robot. Progress is placed anew (within ``window_m``) after each plan only; then it
+advances no faster than the pose moves, so a later part of the route lying near (across a wall,
+past a door) never pulls the robot off the part it is on. Arrival: the pose within ``arrive_m``
+of the goal point.
+
+Blocked. The map shows no walls, so a robot whose pose is off may drive into one. When forward
+commands have not moved the pose (the robot's own odometry) for ``blocked_s``, it reverses at half
+speed for ``back_off_s`` and plans afresh (a replan).
 
 Replanning (counted). The route is planned again when the pose is more than ``replan_m`` from the
 route ahead (the robot, or the map's idea of where it is, left the route), or when the distance
@@ -66,6 +73,8 @@ class ControllerParams:
     stall_s: float = 20.0  # no progress for this long: replan
     stall_progress_m: float = 0.3
     replan_interval_s: float = 5.0
+    blocked_s: float = 2.0  # driving forward while the pose stays put this long: blocked
+    back_off_s: float = 2.0  # ... then reverse at half speed this long and plan afresh
 
 
 class RouteController:
@@ -80,6 +89,10 @@ class RouteController:
         self.arrived = False
         self._nodes = np.zeros(0, dtype=np.int64)
         self._s = -1.0  # progress along the route (m; -1: not placed on the route yet)
+        self._last_xy: tuple[float, float] | None = None  # the pose at the previous command
+        self._v_last = 0.0  # the previous command's speed
+        self._t_blocked = 0.0  # how long forward commands have not moved the pose
+        self._backing = 0.0  # time left reversing off an obstacle
         self._t = 0.0
         self._best, self._t_best, self._t_plan = math.inf, 0.0, -math.inf
 
@@ -89,6 +102,7 @@ class RouteController:
         self.arrived = False
         self.replans = 0
         self._t = 0.0
+        self._t_blocked, self._backing = 0.0, 0.0
         return self._plan()
 
     def _plan(self) -> str:
@@ -98,6 +112,11 @@ class RouteController:
         self._s = -1.0
         self._best, self._t_best, self._t_plan = math.inf, self._t, self._t
         return self.status
+
+    def _moved(self, xy: tuple[float, float]) -> float:
+        """How far the pose moved since the previous command (m)."""
+        last, self._last_xy = self._last_xy, xy
+        return 0.0 if last is None else math.hypot(xy[0] - last[0], xy[1] - last[1])
 
     def _replan(self) -> None:
         self.replans += 1
@@ -116,6 +135,11 @@ class RouteController:
             return 0.0, 0.0
         p = self.params
         x, y, th = self.nav.pose
+        moved = self._moved((x, y))
+        if self._recovering(dt, moved):
+            return self._out(-0.5 * p.speed, 0.0)
+        if self.status != "ok":  # the replan after backing off found no route
+            return self._out(0.0, 0.0)
         # the route as it lies in the map now: its nodes, then the goal point
         pts = np.vstack((self.nav.node_xy(self._nodes), [self.goal]))
         along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
@@ -123,19 +147,23 @@ class RouteController:
             pts = _smooth(pts, along, p.smooth_m)
             along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
         total = float(along[-1])
-        s_proj, off = _project_on_route((x, y), pts, along, max(self._s, 0.0), p.window_m, p.skip_tolerance_m)
+        # placed anew (a new plan) the route may start behind the robot and is skipped along up
+        # to window_m; once placed, progress keeps up with the robot's own motion, so it never
+        # jumps to a later part of the route that merely lies near (across a wall, past a door)
+        window = p.window_m if self._s < 0 else moved + p.skip_tolerance_m
+        s_proj, off = _project_on_route((x, y), pts, along, max(self._s, 0.0), window, p.skip_tolerance_m)
         self._s = max(self._s, s_proj)
         d_goal = math.hypot(self.goal[0] - x, self.goal[1] - y)
         if d_goal < p.arrive_m:
             self.arrived = True
-            return 0.0, 0.0
+            return self._out(0.0, 0.0)
         to_go = total - self._s + off
         if to_go < self._best - p.stall_progress_m:
             self._best, self._t_best = to_go, self._t
         if self._t - self._t_plan >= p.replan_interval_s and (off > p.replan_m or self._t - self._t_best > p.stall_s):
             self._replan()
             if self.status != "ok":
-                return 0.0, 0.0
+                return self._out(0.0, 0.0)
             return self.command(0.0)
         s_target = self._s + p.lookahead_m
         target = self.goal if s_target >= total or d_goal < p.lookahead_m else _point_at(pts, along, s_target)
@@ -143,7 +171,29 @@ class RouteController:
         max_turn = math.radians(p.max_turn_rate_deg)
         v_rot = max(-max_turn, min(max_turn, p.turn_gain * err))
         v_trans = p.speed * max(0.0, 1.0 - abs(err) / (math.pi / 3))
+        return self._out(v_trans, v_rot)
+
+    def _out(self, v_trans: float, v_rot: float) -> tuple[float, float]:
+        self._v_last = v_trans
         return v_trans, v_rot
+
+    def _recovering(self, dt: float, moved: float) -> bool:
+        """Whether to reverse this tick. Blocked (a wall the map does not show; the robot's own
+        odometry says that forward commands have not moved it for ``blocked_s``), the robot
+        backs off for ``back_off_s`` at half speed and then plans afresh (a replan)."""
+        p = self.params
+        if self._backing > 0.0:
+            self._backing -= dt
+            if self._backing > 0.0:
+                return True
+            self._replan()
+            return False
+        blocked = self._v_last > 0.5 * p.speed and moved < 0.2 * self._v_last * dt
+        self._t_blocked = self._t_blocked + dt if blocked else 0.0
+        if self._t_blocked >= p.blocked_s:
+            self._t_blocked, self._backing = 0.0, p.back_off_s
+            return True
+        return False
 
 
 def _project_on_route(xy, pts: np.ndarray, along: np.ndarray, s0: float, window: float, tolerance: float):

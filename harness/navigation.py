@@ -228,6 +228,7 @@ def navigation_ratslam_config(pose_graph: PoseGraphConfig | None = None, **reent
         "heading_sigma_deg": math.degrees(pg.closures.sigma_theta_rad),
         "odom_speed_noise_m_s": pg.odometry.sigma_v_m_s,
         "odom_heading_noise_rad_s": pg.odometry.sigma_w_rad_s,
+        "odometry_trust_limit": math.inf,  # the pose graph trusts its odometry model throughout
     }
     return RatSLAMConfig().replace(reentry=fields | reentry)
 

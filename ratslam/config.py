@@ -160,6 +160,9 @@ class ReentryFusionConfig:
     """Re-entries whose innovations scale the odometry's noise up where it errs more (0 = off)."""
     odometry_trust_limit: float = param(2.0, ge=1, finite=False)
     """Noise scale beyond which re-entries ignore the odometry (a bias the model lacks; inf = never)."""
+    chain_fixes: bool = True
+    """The prediction's covariance may come from the latest re-entry's, carried by the odometry
+    (a filter), where that is smaller than the odometry's since the robot was last at the place."""
 
     def __post_init__(self) -> None:
         check_fields(self)

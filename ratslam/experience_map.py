@@ -59,6 +59,11 @@ def wrap_angle(a):
     return a - (2.0 * _PI) * np.round(a * (1.0 / (2.0 * _PI)))
 
 
+def _log_likelihood(nu: np.ndarray, cov: np.ndarray) -> float:
+    """Log density (up to a constant) of a zero-mean Gaussian with ``cov`` at ``nu``."""
+    return -0.5 * (float(nu @ np.linalg.solve(cov, nu)) + math.log(np.linalg.det(cov)))
+
+
 def _wrap_scalar(a: float) -> float:
     return (a + _PI) % (2.0 * _PI) - _PI
 
@@ -139,6 +144,7 @@ class ExperienceMap:
         self._fuse = fusion.enabled
         self._noise = PathNoise(fusion.odom_speed_noise_m_s, fusion.odom_heading_noise_rad_s)
         self._innovations = InnovationScale(fusion.innovation_window)
+        self._fix = np.zeros(0)  # the latest re-entry's pose covariance (PathNoise.fix); empty: none
         self._view_cov = np.diag(
             [fusion.position_sigma_m**2, fusion.position_sigma_m**2, math.radians(fusion.heading_sigma_deg) ** 2]
         )
@@ -329,21 +335,42 @@ class ExperienceMap:
     def fuse_reentry(self, j: int, offset):
         """Kalman update at a re-entry into ``j``: the pose the pose cells give (``offset`` in
         ``j``'s frame; covariance from the reentry sigmas) fused with the pose the map and the
-        odometry predict (the odometry's covariance since the robot was last at ``j``). Returns
-        the fused pose as an offset in ``j``'s frame."""
+        odometry predict (:meth:`prediction_covariance`). Returns the fused pose as an offset in
+        ``j``'s frame."""
         meas = self._robot_at(j, offset)
         pred = self.pose
-        p_cov = self._noise.covariance_since(self._exp.cols["noise"][j], pred[2])
         nu = innovation(pred, meas)
+        since_visit = self._noise.covariance_since(self._exp.cols["noise"][j], pred[2])
+        p_cov = self.prediction_covariance(nu, since_visit, pred[2])
         scale = self._innovations.scale
-        self._innovations.add(nu, p_cov, self._view_cov)
+        # the odometry's noise scale is judged on loop-sized paths, whichever covariance is used
+        self._innovations.add(nu, since_visit, self._view_cov)
         if not self._innovations.trusted(self.config.reentry.odometry_trust_limit):
-            return offset  # the odometry has not shown that it keeps to its model: the pose cells alone
-        fused = kalman_fuse(pred, scale * p_cov, nu, self._view_cov)
+            # the odometry has not shown that it keeps to its model: the pose cells alone
+            self._fix = self._noise.fix(self._view_cov, meas[2])
+            return offset
+        fused, cov = kalman_fuse(pred, scale * p_cov, nu, self._view_cov)
+        self._fix = self._noise.fix(cov, fused[2])
         xj, yj, tj = self._exp.cols["x"][j], self._exp.cols["y"][j], self._exp.cols["th"][j]
         cj, sj = math.cos(tj), math.sin(tj)
         dx, dy = fused[0] - xj, fused[1] - yj
         return (cj * dx + sj * dy, -sj * dx + cj * dy, _wrap_scalar(fused[2] - tj))
+
+    def prediction_covariance(self, nu: np.ndarray, since_visit: np.ndarray, heading: float) -> np.ndarray:
+        """Covariance (map frame) of the predicted pose relative to the re-entered experience.
+
+        Two models: the map was laid out along the path since the robot was last at the place,
+        so the prediction errs by the odometry's error over that path (``since_visit``: a loop
+        closed, the map's drift still in it); or, with ``reentry.chain_fixes``, the place sits
+        where the map has it relative to the latest re-entry and the prediction errs by that
+        fix's fused error carried along the path since (a robot moving about a known map). Of
+        the two, the one under which the innovation ``nu`` is the more likely."""
+        if not (self.config.reentry.chain_fixes and len(self._fix)):
+            return since_visit
+        since_fix = self._noise.covariance_after(self._fix, heading)
+        if _log_likelihood(nu, since_fix + self._view_cov) > _log_likelihood(nu, since_visit + self._view_cov):
+            return since_fix
+        return since_visit
 
     def peak_offset(self, j: int, peak_cell: np.ndarray) -> tuple[float, float, float]:
         """Where the pose-cell peak is relative to experience ``j``'s cells, in ``j``'s frame:
@@ -426,6 +453,7 @@ class ExperienceMap:
         s["em_acc"] = self._acc.copy()
         s["em_path_noise"] = self._noise.get_state()
         s["em_innovations"] = self._innovations.get_state()
+        s["em_fix"] = self._fix.copy()
         s["em_path_since_reentry"] = np.array([self._path_since_reentry])
         return s
 
@@ -437,6 +465,7 @@ class ExperienceMap:
         self._acc = np.asarray(s["em_acc"], dtype=float).copy()
         self._noise.set_state(s["em_path_noise"])
         self._innovations.set_state(s["em_innovations"])
+        self._fix = np.asarray(s["em_fix"], dtype=float).copy()
         self._path_since_reentry = float(s["em_path_since_reentry"][0])
         self._divisor_key = None
         self._by_view = {}

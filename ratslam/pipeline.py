@@ -16,7 +16,7 @@ from .local_view import LocalView
 from .pose_cells import PoseCells
 from .snaps import is_snap
 
-_FORMAT = "ratslam-state-4"  # 2: the latest snap; 3: nested config; 4: path noise per experience
+_FORMAT = "ratslam-state-5"  # 2: the latest snap; 3: nested config; 4: path noise per experience; 5: the latest fix
 
 
 class RatSLAM:

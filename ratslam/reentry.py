@@ -58,17 +58,38 @@ class PathNoise:
     def covariance_since(self, snapshot: np.ndarray, map_heading: float) -> np.ndarray:
         """Covariance (3, 3) of the current pose relative to the pose when ``snapshot`` (a copy
         of :attr:`sums`) was taken, in the map frame whose current heading is ``map_heading``."""
+        return self.to_map(self._dr_covariance_since(snapshot), map_heading)
+
+    def covariance_after(self, fix: np.ndarray, map_heading: float) -> np.ndarray:
+        """Covariance (3, 3) of the current pose in the map frame (current heading
+        ``map_heading``), given a fix (:meth:`fix`) taken at an earlier tick: the fix's
+        covariance carried along the path since (a heading error at the fix swings every later
+        position about the fix's position) plus the path's own noise."""
+        cov0, x0, y0, sums0 = fix[:9].reshape(3, 3), fix[9], fix[10], fix[11:]
+        x, y, _ = self.pose
+        jac = np.array([[1.0, 0.0, -(y - y0)], [0.0, 1.0, x - x0], [0.0, 0.0, 1.0]])
+        return self.to_map(jac @ cov0 @ jac.T + self._dr_covariance_since(sums0), map_heading)
+
+    def fix(self, cov: np.ndarray, map_heading: float) -> np.ndarray:
+        """A record of the current pose's covariance ``cov`` (map frame, current heading
+        ``map_heading``) for :meth:`covariance_after`: the covariance in the dead-reckoning
+        frame, the dead-reckoned position and the running sums, as one flat array."""
+        dr_cov = _rotate(cov, self.pose[2] - map_heading)
+        return np.concatenate((dr_cov.ravel(), self.pose[:2], self.sums))
+
+    def to_map(self, dr_cov: np.ndarray, map_heading: float) -> np.ndarray:
+        """A covariance in the dead-reckoning frame rotated into the map frame, whose heading
+        is ``map_heading`` where the dead reckoning's is :attr:`pose`'s."""
+        return _rotate(dr_cov, map_heading - self.pose[2])
+
+    def _dr_covariance_since(self, snapshot: np.ndarray) -> np.ndarray:
         w, wx, wy, wxx, wyy, wxy, vcc, vss, vcs = self.sums - snapshot
         x, y, th = self.pose
         sxx = y * y * w - 2.0 * y * wy + wyy + vcc
         syy = x * x * w - 2.0 * x * wx + wxx + vss
         sxy = -(x * y * w - x * wy - y * wx + wxy) + vcs
         sxt, syt = -(y * w - wy), x * w - wx
-        cov = np.array([[sxx, sxy, sxt], [sxy, syy, syt], [sxt, syt, w]])
-        rot = np.eye(3)  # from the dead-reckoning frame into the map frame
-        a = map_heading - th
-        rot[:2, :2] = ((math.cos(a), -math.sin(a)), (math.sin(a), math.cos(a)))
-        return rot @ cov @ rot.T
+        return np.array([[sxx, sxy, sxt], [sxy, syy, syt], [sxt, syt, w]])
 
     def get_state(self) -> np.ndarray:
         return np.concatenate((self.pose, self.sums))
@@ -78,6 +99,13 @@ class PathNoise:
         self.sums = np.asarray(state[3:], dtype=float).copy()
 
 
+def _rotate(cov: np.ndarray, angle: float) -> np.ndarray:
+    """A pose covariance (x, y, θ) seen from a frame rotated by ``angle``."""
+    rot = np.eye(3)
+    rot[:2, :2] = ((math.cos(angle), -math.sin(angle)), (math.sin(angle), math.cos(angle)))
+    return rot @ cov @ rot.T
+
+
 def innovation(predicted, measured) -> np.ndarray:
     """Measured minus predicted pose (x, y, θ), the heading wrapped."""
     nu = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
@@ -85,11 +113,13 @@ def innovation(predicted, measured) -> np.ndarray:
     return nu
 
 
-def kalman_fuse(predicted, p_cov: np.ndarray, nu: np.ndarray, m_cov: np.ndarray) -> np.ndarray:
+def kalman_fuse(predicted, p_cov: np.ndarray, nu: np.ndarray, m_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The Kalman update of a predicted pose (x, y, θ) with covariance ``p_cov`` by a
-    measurement with innovation ``nu`` and covariance ``m_cov``."""
+    measurement with innovation ``nu`` and covariance ``m_cov``: the fused pose and its
+    covariance."""
     gain = p_cov @ np.linalg.inv(p_cov + m_cov)
-    return np.asarray(predicted, dtype=float) + gain @ nu
+    cov = (np.eye(3) - gain) @ p_cov
+    return np.asarray(predicted, dtype=float) + gain @ nu, 0.5 * (cov + cov.T)
 
 
 class InnovationScale:

@@ -7,7 +7,7 @@ import pytest
 
 from ratslam import PAPER_REENTRIES, ReentryFusionConfig
 from ratslam.experience_map import ExperienceMap, wrap_angle
-from ratslam.reentry import InnovationScale, PathNoise
+from ratslam.reentry import InnovationScale, PathNoise, kalman_fuse
 from tests.helpers import CFG as DEFAULT
 
 # eqs 2-14 as the paper has them: re-entries wherever the pose cells say
@@ -322,6 +322,65 @@ def test_path_noise_is_the_noise_since_the_snapshot_only():
         a.integrate(1.0, 1.0, 0.02)
         b.integrate(1.0, 1.0, 0.02)
     np.testing.assert_allclose(a.covariance_since(snap_a, 0.3), b.covariance_since(snap_b, 0.3), rtol=1e-6, atol=1e-12)
+
+
+def test_path_noise_carries_a_fix_along_the_path():
+    """A fix's heading error swings the positions after it about the fix's position: known to
+    0.1 rad at the fix, 10 m straight on the cross-track variance is 10^2 x 0.01 more than the
+    path's own; a fix in a map frame turned against the dead reckoning comes back the same."""
+    a, b = PathNoise(0.1, 0.01), PathNoise(0.1, 0.01)
+    for _ in range(7):
+        a.integrate(1.0, 1.0, 0.3)
+    fix_cov = np.diag([0.04, 0.09, 0.01])
+    fix = a.fix(fix_cov, 1.0)
+    np.testing.assert_allclose(a.covariance_after(fix, 1.0), fix_cov, atol=1e-12)
+    b_fix = b.fix(np.diag([0.04, 0.04, 0.01]), 0.0)
+    for _ in range(10):
+        b.integrate(1.0, 1.0, 0.0)
+    cov = b.covariance_after(b_fix, 0.0)
+    own = b.covariance_since(b_fix[11:], 0.0)
+    assert cov[1, 1] - own[1, 1] == pytest.approx(0.04 + 100 * 0.01)
+    assert cov[1, 2] - own[1, 2] == pytest.approx(10 * 0.01) and cov[0, 0] - own[0, 0] == pytest.approx(0.04)
+
+
+def test_kalman_fuse_gives_the_information_form_covariance():
+    p, r = np.array([[0.3, 0.1, 0.0], [0.1, 0.2, 0.05], [0.0, 0.05, 0.1]]), np.diag([0.2, 0.1, 0.3])
+    _, cov = kalman_fuse(np.zeros(3), p, np.ones(3), r)
+    np.testing.assert_allclose(cov, np.linalg.inv(np.linalg.inv(p) + np.linalg.inv(r)), atol=1e-12)
+
+
+def _chained_reentry(innovation_m: float, chain: bool):
+    """The robot was last at experience 0 (the origin) 2,000 m of driving ago, but re-entered
+    experience 1 a metre back, its pose fused there; the map and odometry now put it at 0's place
+    and the pose cells ``innovation_m`` m to the side. Returns the fused offset's lateral part."""
+    cfg = FUSE.replace(reentry={"position_sigma_m": 0.3, "chain_fixes": chain})
+    em = ExperienceMap(cfg)
+    em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 7, 0)
+    em._enter(0, 0)
+    for _ in range(1000):  # out and back: long gone from experience 0
+        em.integrate(1.0, 1.0, 0.0)
+    for _ in range(1000):
+        em.integrate(1.0, -1.0, 0.0)
+    em.add_experience((-1.0, 0.0, 0.0), (6.0, 10.0, 0.0), 8, 1)
+    em.current = 1
+    em._acc[:] = (1.0, 0.0, 0.0, 1.0)  # a metre past experience 1, i.e. at experience 0's place
+    em._fix = em._noise.fix(np.diag([0.01, 0.01, 1e-4]), 0.0)  # fused at experience 1
+    return em.fuse_reentry(0, (0.0, innovation_m, 0.0))[1]
+
+
+def test_chained_fixes_keep_a_robot_on_a_known_map_to_its_latest_fix():
+    """Just fused a metre back, the robot is as sure of its pose as that fix: a small offset from
+    the pose cells moves it little; with the covariance since its last visit to the place
+    (2 km of odometry) the pose cells would move it almost all the way."""
+    assert _chained_reentry(0.2, chain=True) < 0.05
+    assert _chained_reentry(0.2, chain=False) > 0.19
+
+
+def test_chained_fixes_give_way_to_a_loop_closure():
+    """An offset the latest fix cannot explain (3 m: the map's drift round a loop) is taken as a
+    loop closure: the covariance since the last visit, the pose cells' pose."""
+    assert _chained_reentry(3.0, chain=True) == pytest.approx(_chained_reentry(3.0, chain=False))
+    assert _chained_reentry(3.0, chain=True) > 2.9
 
 
 def _reentry(since_m: float):

@@ -204,6 +204,51 @@ def test_controller_smooths_a_kinked_route():
     assert smoothed < 0.35 and smoothed < 0.7 * raw
 
 
+def test_controller_progress_does_not_jump_to_a_later_part_of_the_route_nearby():
+    """A U-shaped route (west along y = 1, down a door at x = -2, east along y = 0): when the
+    pose comes to lie between the two arms, about as near the later one, the robot keeps to the
+    route's part it is on instead of cutting across to the later arm (through the wall there)."""
+    robot = _PointRobot()
+    robot.xy = np.array([[1.0, 1.0], [0.0, 1.0], [-1.0, 1.0], [-2.0, 1.0], [-2.0, 0.0], [0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
+    robot.edges = np.stack((np.arange(7), np.arange(1, 8)), axis=1)
+    robot.pose = (1.0, 1.0, math.pi)
+    ctrl = RouteController(robot, ControllerParams(smooth_m=0.0))
+    assert ctrl.set_goal((4.0, 0.0)) == "ok"
+    dt = 1 / 7
+    robot.move(*ctrl.command(dt), dt)
+    robot.pose = (0.5, 0.55, math.pi)  # a re-entry moves the pose 0.45 m towards the lower arm
+    ctrl.command(dt)
+    assert ctrl._s < 1.0  # still on the upper arm (the lower arm's nearest point is 6.5 m on)
+    west = []
+    for _ in range(800):
+        robot.move(*ctrl.command(dt), dt)
+        west.append(robot.pose[0])
+        if ctrl.arrived:
+            break
+    assert ctrl.arrived and min(west) < -1.5  # drove round by the door
+
+
+def test_controller_backs_off_a_wall_it_cannot_see_and_replans():
+    """A wall the map does not show stops the robot at x = 3 (its odometry, hence its pose, stays
+    put): after blocked_s of forward commands it reverses for back_off_s, then plans afresh."""
+    robot = _PointRobot()
+    params = ControllerParams()
+    ctrl = RouteController(robot, params)
+    ctrl.set_goal((8.0, 0.0))
+    dt, commands = 1 / 7, []
+    for _ in range(int(15.0 / dt)):
+        v, w = ctrl.command(dt)
+        commands.append(v)
+        robot.move(v, w, dt)
+        robot.pose = (min(robot.pose[0], 3.0), robot.pose[1], robot.pose[2])
+    v = np.array(commands)
+    first_back = int(np.argmax(v < 0))
+    assert v[first_back] == pytest.approx(-0.5 * params.speed)
+    assert first_back * dt == pytest.approx(3.0 / params.speed + params.blocked_s, abs=0.6)
+    assert (v[first_back : first_back + int(params.back_off_s / dt) - 1] < 0).all()
+    assert ctrl.replans >= 1 and robot.plans >= 2
+
+
 def test_navigation_ratslam_config_mirrors_the_pose_graph_noise():
     from baselines import PoseGraphConfig
     from harness.navigation import navigation_ratslam_config
