@@ -346,7 +346,11 @@ def _bias_figure(name: str, bias: float) -> Figure:
             "off; the relocalisation bound stays): the default fusion trusts the odometry until its "
             "innovations show the bias over a window of re-entries, and the links laid in that time bend "
             "the map (Fig 8 seed 0, before aliasing lay on the lap: experience map 0.57 m with the fusion, "
-            "0.12 m without; odometry 3.2 m). The variants' tables show which system closes the loop at this bias."
+            "0.12 m without; odometry 3.2 m). The aliased scene on the lap (seed 0: one scene number at two "
+            "places 4.4 m apart) would close a false loop at the first lap's end, where the biased odometry "
+            "and pose cells have drifted alike; a new loop closure waits for the next scene's re-entry to agree "
+            "(experience_map.loop_closure_sequence). The variants' tables show which system closes the loop "
+            "at this bias."
         ),
     )
 

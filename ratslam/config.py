@@ -136,6 +136,9 @@ class ExperienceMapConfig:
     relocalise_slack_cells: float = param(4.0, ge=0)
     """Slack of that bound, in (x', y') cells (1 m at 0.25 m cells): a view places the robot only
     to within about its scene."""
+    loop_closure_sequence: bool = True
+    """A re-entry the map's links do not already lead to (a new loop closure) waits until the next
+    scene's re-entry agrees with it, as a sequence (False = the paper's: one view). See the docs."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -179,9 +182,9 @@ class ReentryFusionConfig:
 
 
 # The paper's re-entries: wherever the pose cells say (no fusion with the odometry, no bound on
-# how far a view may move the robot). ``RatSLAMConfig().replace(**PAPER_REENTRIES)``.
+# how far a view may move the robot, one view enough to close a loop). ``RatSLAMConfig().replace(**PAPER_REENTRIES)``.
 PAPER_REENTRIES: dict[str, dict[str, Any]] = {
-    "experience_map": {"relocalise_path_bound": False},
+    "experience_map": {"relocalise_path_bound": False, "loop_closure_sequence": False},
     "reentry": {"position_sigma_m": 0.0, "heading_sigma_deg": 0.0},
 }
 

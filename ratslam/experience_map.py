@@ -26,6 +26,16 @@ and the pose the map and the odometry predict (the current pose) are fused by a 
 the prediction's covariance being the odometry's over the path driven since the robot was last at
 that experience; the link and the current pose use the fused pose.
 
+Loop-closure sequence (``experience_map.loop_closure_sequence``, on by default; not in the paper):
+a re-entry that the map's links already lead to from the current experience (within the path
+driven since it was entered) continues a known route and is taken at once. Any other re-entry
+closes a new loop on one view, which an aliased scene can fake where the pose cells and the
+odometry have drifted alike; it is held as a candidate and taken only when the next scene's
+re-entry agrees with it: the candidate's place composed with the odometry since then lands within
+``relocalise_slack_cells`` of the new re-entry's place (consecutive views of one route, not one
+match, as in sequence-based place recognition). Until then the map goes on as if no experience
+matched (eqs 10-11).
+
 Map correction (eqs 12-14), every tick, all experiences at once (Jacobi)::
 
     Δθ_i = α_θ [ Σ_j (θ_j - θ_i - φ_ij) + Σ_k (θ_k - θ_i + φ_ki) ]
@@ -41,7 +51,9 @@ residual), which converges.
 
 from __future__ import annotations
 
+import heapq
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -66,6 +78,34 @@ def _log_likelihood(nu: np.ndarray, cov: np.ndarray) -> float:
 
 def _wrap_scalar(a: float) -> float:
     return (a + _PI) % (2.0 * _PI) - _PI
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    """A loop closure held until the next scene agrees: re-entering ``experience`` (seen as
+    ``view``) at ``offset`` in its frame, when the dead reckoning was at ``odometry``."""
+
+    experience: int
+    view: int
+    offset: tuple[float, float, float]
+    odometry: tuple[float, float, float]
+
+
+def _triple(v) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _compose(a, b) -> tuple[float, float, float]:
+    """Pose ``b`` (in ``a``'s frame) in the frame ``a`` is in."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2])
+
+
+def _between(a, b) -> tuple[float, float, float]:
+    """Pose ``b`` in ``a``'s frame (both in one frame)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return (c * dx + s * dy, -s * dx + c * dy, b[2] - a[2])
 
 
 class _Growable:
@@ -139,6 +179,10 @@ class ExperienceMap:
         # odometry accumulated since the current experience was entered, in its frame
         self._acc = np.zeros(4)  # x, y, phi, t
         self._path_since_reentry = 0.0  # m driven since the latest switch to a familiar experience
+        self._path_since_enter = 0.0  # m driven since the current experience was entered
+        self._odometry = np.zeros(3)  # dead reckoning (x, y, θ), to compare consecutive re-entries
+        self._candidate: _Candidate | None = None  # a loop closure waiting for the next scene
+        self._neighbours: dict[int, list[tuple[int, float]]] = {}  # links both ways, with d_ij
         # re-entry fusion (off with zero view sigmas): the odometry's noise along the path
         fusion = config.reentry
         self._fuse = fusion.enabled
@@ -213,6 +257,11 @@ class ExperienceMap:
         acc[1] += v_trans * dt * math.sin(acc[2])
         acc[3] += dt
         self._path_since_reentry += abs(v_trans) * dt
+        self._path_since_enter += abs(v_trans) * dt
+        odo = self._odometry
+        odo[2] += v_rot * dt
+        odo[0] += v_trans * dt * math.cos(odo[2])
+        odo[1] += v_trans * dt * math.sin(odo[2])
         if self._fuse:
             self._noise.integrate(dt, v_trans, v_rot)
 
@@ -272,6 +321,7 @@ class ExperienceMap:
             }
         )
         self._linked.add(key)
+        self._add_neighbours(i, j, math.hypot(ax, ay))
         deg = self._exp.cols["degree"]
         deg[i] += 1.0
         deg[j] += 1.0
@@ -286,19 +336,23 @@ class ExperienceMap:
         if ids:
             ids_arr = np.asarray(ids)
             e = self.energy(peak_cell, view, ids_arr)
+            held = None  # the most energetic re-entry waiting for the next scene
             for k in np.argsort(-e, kind="stable"):  # most energetic first (eq 9)
                 if e[k] <= 0.0:
                     break
                 j = int(ids_arr[k])
                 if j == self.current:
+                    self._hold(held, view)
                     return "none"
                 offset = self._reentry_offset(j, peak_cell)
-                if offset is not None:
-                    if self.current >= 0:
-                        self._add_link(self.current, j, offset)
-                    self._enter(j, tick, offset)
-                    self._path_since_reentry = 0.0
-                    return "switch"
+                if offset is None:
+                    continue
+                if not self._closes_in_sequence(j, offset, view):
+                    held = held or (j, offset)
+                    continue
+                self._switch(j, tick, offset)
+                return "switch"
+            self._hold(held, view)
         # eqs 10-11: no experience with positive energy (or none a plausible re-entry)
         j = self._new_experience(tick, peak_cell, view)
         if self.current >= 0:
@@ -306,24 +360,87 @@ class ExperienceMap:
         self._enter(j, tick)
         return "create"
 
+    def _switch(self, j: int, tick: int, offset) -> None:
+        """Re-enter ``j``, the robot at ``offset`` in its frame (fused with the odometry's
+        prediction when the re-entry fusion is on)."""
+        if self.current >= 0 and self._fuse:
+            offset = self.fuse_reentry(j, offset)
+        if self.current >= 0:
+            self._add_link(self.current, j, offset)
+        self._enter(j, tick, offset)
+        self._path_since_reentry = 0.0
+        self._candidate = None
+
     def _reentry_offset(self, j: int, peak_cell: np.ndarray):
-        """Where the robot is in ``j``'s frame if it re-enters ``j`` now (the pose cells' offset,
-        fused with the odometry's prediction when the re-entry fusion is on), or None if that
-        re-entry is not plausible: with ``experience_map.relocalise_path_bound``, a place further
-        from the predicted pose than the path driven since the latest re-entry (plus
+        """Where the pose cells put the robot in ``j``'s frame if it re-enters ``j`` now, or None
+        if that re-entry is not plausible: with ``experience_map.relocalise_path_bound``, a place
+        further from the predicted pose than the path driven since the latest re-entry (plus
         ``relocalise_slack_cells``) cannot be where the robot is, whatever the view says (a
         look-alike place, an aliased scene)."""
         cfg = self.config.experience_map
         offset = self.peak_offset(j, peak_cell) if cfg.offset_transitions else (0.0, 0.0, 0.0)
-        if self.current < 0:
-            return offset
-        if cfg.relocalise_path_bound:
-            slack = cfg.relocalise_slack_cells * self.config.pose_cells.cell_size_m
+        if self.current >= 0 and cfg.relocalise_path_bound:
             x, y, _ = self._robot_at(j, offset)
             px, py, _ = self.pose
-            if math.hypot(x - px, y - py) > self._path_since_reentry + slack:
+            if math.hypot(x - px, y - py) > self._path_since_reentry + self._slack_m:
                 return None
-        return self.fuse_reentry(j, offset) if self._fuse else offset
+        return offset
+
+    @property
+    def _slack_m(self) -> float:
+        """How well a view places the robot (``relocalise_slack_cells``), in metres."""
+        return self.config.experience_map.relocalise_slack_cells * self.config.pose_cells.cell_size_m
+
+    # ------------------------------------------------------------------ loop-closure sequence
+    def _closes_in_sequence(self, j: int, offset, view: int) -> bool:
+        """Whether re-entering ``j`` now is trusted (module doc, loop-closure sequence): always
+        without ``loop_closure_sequence``; else when the links lead there from the current
+        experience, or when the held candidate of an earlier scene agrees with it."""
+        if not self.config.experience_map.loop_closure_sequence or self.current < 0:
+            return True
+        if self._links_lead_to(self.current, j, self._path_since_enter + self._slack_m):
+            return True
+        cand = self._candidate
+        return cand is not None and cand.view != view and self._agrees(cand, j, offset)
+
+    def _hold(self, held, view: int) -> None:
+        """Keep the first re-entry of a scene that was not trusted as the candidate the next scene
+        must agree with (a later scene's replaces an earlier scene's)."""
+        if held is None or not self.config.experience_map.loop_closure_sequence:
+            return
+        if self._candidate is None or self._candidate.view != view:
+            j, offset = held
+            self._candidate = _Candidate(j, int(view), _triple(offset), _triple(self._odometry))
+
+    def _agrees(self, cand: _Candidate, j: int, offset) -> bool:
+        """Whether the candidate's place, composed with the odometry driven since, is within the
+        slack of where re-entering ``j`` at ``offset`` puts the robot."""
+        since = _between(cand.odometry, tuple(self._odometry))
+        x, y, _ = _compose(self._robot_at(cand.experience, cand.offset), since)
+        xj, yj, _ = self._robot_at(j, offset)
+        return math.hypot(x - xj, y - yj) <= self._slack_m
+
+    def _add_neighbours(self, i: int, j: int, d: float) -> None:
+        self._neighbours.setdefault(i, []).append((j, d))
+        self._neighbours.setdefault(j, []).append((i, d))
+
+    def _links_lead_to(self, i: int, j: int, reach_m: float) -> bool:
+        """Whether a chain of links joins ``i`` to ``j`` within ``reach_m`` of summed link
+        distances (Dijkstra, stopped at the reach: only the neighbourhood is searched)."""
+        best = {i: 0.0}
+        queue = [(0.0, i)]
+        while queue:
+            dist, k = heapq.heappop(queue)
+            if k == j:
+                return True
+            if dist > best.get(k, math.inf):
+                continue
+            for n, d in self._neighbours.get(k, ()):
+                nd = dist + d
+                if nd <= reach_m and nd < best.get(n, math.inf):
+                    best[n] = nd
+                    heapq.heappush(queue, (nd, n))
+        return False
 
     def _robot_at(self, j: int, offset) -> tuple[float, float, float]:
         """The map pose of a robot at ``offset`` (forward, left, heading) in ``j``'s frame."""
@@ -390,6 +507,7 @@ class ExperienceMap:
         self._exp.cols["noise"][j] = self._noise.sums
         self._acc[:3] = offset
         self._acc[3] = 0.0
+        self._path_since_enter = 0.0
 
     # ------------------------------------------------------------------ eqs 12-14
     def link_residuals(self) -> np.ndarray:
@@ -454,7 +572,12 @@ class ExperienceMap:
         s["em_path_noise"] = self._noise.get_state()
         s["em_innovations"] = self._innovations.get_state()
         s["em_fix"] = self._fix.copy()
-        s["em_path_since_reentry"] = np.array([self._path_since_reentry])
+        s["em_path_since_reentry"] = np.array([self._path_since_reentry, self._path_since_enter])
+        s["em_odometry"] = self._odometry.copy()
+        cand = self._candidate
+        s["em_candidate"] = (
+            np.array([cand.experience, cand.view, *cand.offset, *cand.odometry]) if cand else np.zeros(0)
+        )
         return s
 
     def set_state(self, s: dict) -> None:
@@ -466,10 +589,16 @@ class ExperienceMap:
         self._noise.set_state(s["em_path_noise"])
         self._innovations.set_state(s["em_innovations"])
         self._fix = np.asarray(s["em_fix"], dtype=float).copy()
-        self._path_since_reentry = float(s["em_path_since_reentry"][0])
+        self._path_since_reentry, self._path_since_enter = (float(v) for v in s["em_path_since_reentry"])
+        self._odometry = np.asarray(s["em_odometry"], dtype=float).copy()
+        c = s["em_candidate"]
+        self._candidate = _Candidate(int(c[0]), int(c[1]), _triple(c[2:5]), _triple(c[5:8])) if len(c) else None
         self._divisor_key = None
         self._by_view = {}
         for i, v in enumerate(self.views):
             self._by_view.setdefault(int(v), []).append(i)
         f, t = self._link.view("from"), self._link.view("to")
         self._linked = {(int(min(a, b)), int(max(a, b))) for a, b in zip(f, t)}
+        self._neighbours = {}
+        for a, b, d in zip(f, t, self._link.view("d")):
+            self._add_neighbours(int(a), int(b), float(d))

@@ -16,7 +16,9 @@ from .local_view import LocalView
 from .pose_cells import PoseCells
 from .snaps import is_snap
 
-_FORMAT = "ratslam-state-5"  # 2: the latest snap; 3: nested config; 4: path noise per experience; 5: the latest fix
+# format 2: the latest snap; 3: nested config; 4: path noise per experience; 5: loop-closure
+# candidate and the latest re-entry's fix
+_FORMAT = "ratslam-state-5"
 
 
 class RatSLAM:
@@ -27,7 +29,9 @@ class RatSLAM:
     path-integration bias); the view cell learns its association with the active pose cells; the
     experience map integrates the wheel odometry, selects/creates the current experience
     (eqs 2-11) once the scene has been seen for ``experience_map.view_confirm_ticks`` consecutive
-    ticks and the peak has not snapped for ``experience_map.snap_settle_ticks``, and runs its correction (eqs 12-14).
+    ticks and the peak has not snapped for ``experience_map.snap_settle_ticks`` (a new loop closure
+    waits for the next scene to agree: ``experience_map.loop_closure_sequence``), and runs its
+    correction (eqs 12-14).
 
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
     """

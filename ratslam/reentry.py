@@ -84,7 +84,7 @@ class PathNoise:
 
     def _dr_covariance_since(self, snapshot: np.ndarray) -> np.ndarray:
         w, wx, wy, wxx, wyy, wxy, vcc, vss, vcs = self.sums - snapshot
-        x, y, th = self.pose
+        x, y, _ = self.pose
         sxx = y * y * w - 2.0 * y * wy + wyy + vcc
         syy = x * x * w - 2.0 * x * wx + wxx + vss
         sxy = -(x * y * w - x * wy - y * wx + wxy) + vcs

@@ -456,3 +456,92 @@ def test_path_bound_rejects_a_look_alike_place_further_than_the_path_driven():
         em._path_since_reentry = 1.0
         # the pose cells snapped onto the look-alike's cells
         assert em.update(3, np.array([30.0, 10.0, 0.0]), 9) == expected
+
+
+# --- loop-closure sequence: a new loop closure needs the next scene to agree --------------------
+
+SEQ_OFF = DEFAULT.replace(experience_map={"loop_closure_sequence": False})
+
+
+def _corridor(cfg, places) -> ExperienceMap:
+    """Experience 0 (view 0) at the origin, current; ``places`` are (x, y, view) of experiences
+    1, 2, ... with their cells at 4 cells per metre from (10, 10), none linked to experience 0. The
+    re-entry fusion is off (its noise model would move the re-entered pose)."""
+    em = ExperienceMap(cfg.replace(reentry={"position_sigma_m": 0.0, "heading_sigma_deg": 0.0}))
+    em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 0, 0)
+    for k, (x, y, view) in enumerate(places, start=1):
+        em.add_experience((x, y, 0.0), (10.0 + 4 * x, 10.0 + 4 * y, 0.0), view, k)
+    em._enter(0, 0)
+    return em
+
+
+def _drive_and_see(em: ExperienceMap, tick: int, metres: float, j: int) -> str:
+    """Drive ``metres`` straight on, then see experience ``j``'s view with the peak on its cells."""
+    em.integrate(1.0, metres, 0.0)
+    return em.update(tick, em.cells[j].copy(), int(em.views[j]))
+
+
+def test_loop_closure_sequence_is_on_by_default_and_off_in_the_papers_reentries():
+    assert DEFAULT.experience_map.loop_closure_sequence
+    assert not CFG.experience_map.loop_closure_sequence
+
+
+def test_one_view_of_an_unlinked_place_does_not_close_a_loop():
+    """Pose cells, odometry and view all put the robot at experience 1, but nothing links it to
+    where the robot has been: one view is held (a new experience), the paper's takes it."""
+    for cfg, expected in ((DEFAULT, "create"), (SEQ_OFF, "switch")):
+        em = _corridor(cfg, [(4.0, 0.0, 7)])
+        assert _drive_and_see(em, 5, 4.0, 1) == expected
+    assert em.current == 1
+
+
+def test_the_next_scene_agreeing_closes_the_loop():
+    """Held at experience 1 (4 m), then 1 m on the next scene's experience 2 lies where 1 and the
+    odometry put the robot: the loop closes there, linked from the experience the hold created."""
+    em = _corridor(DEFAULT, [(4.0, 0.0, 7), (5.0, 0.0, 8)])
+    assert _drive_and_see(em, 5, 4.0, 1) == "create"
+    held_at = em.current
+    assert _drive_and_see(em, 6, 1.0, 2) == "switch"
+    assert em.current == 2
+    assert tuple(em.links[-1]) == (held_at, 2)
+    assert em.pose == pytest.approx((5.0, 0.0, 0.0), abs=1e-9)
+
+
+def test_a_disagreeing_next_scene_replaces_the_candidate():
+    """An aliased view held at experience 1 (4 m); the next scene's experience 2 lies 2.5 m off
+    where 1 and the odometry put the robot: no loop closes. Experience 3, 1 m past 2 on the next
+    scene, agrees with 2: the loop closes at 3 and experience 1 was never entered."""
+    em = _corridor(DEFAULT, [(4.0, 0.0, 7), (5.0, 2.5, 8), (6.0, 2.5, 9)])
+    assert _drive_and_see(em, 5, 4.0, 1) == "create"
+    assert _drive_and_see(em, 6, 1.0, 2) == "create"
+    assert _drive_and_see(em, 7, 1.0, 3) == "switch"
+    assert em.current == 3
+    assert not np.any(em.links == 1)
+
+
+def test_a_reentry_the_links_lead_to_is_taken_at_once():
+    """Experience 1 is linked from the current one 1 m on: driving 1 m and seeing it continues a
+    known route, no second scene needed. A place 3 m along the links after 0.5 m of driving is
+    beyond the reach (path since entering + 1 m slack): held (the path bound is off here, so
+    that only the sequence decides)."""
+    em = _corridor(DEFAULT, [(1.0, 0.0, 7)])
+    em.add_transition(0, 1, 1.0, 0.0, 0.0, 1.0)
+    assert _drive_and_see(em, 5, 1.0, 1) == "switch"
+    unbounded = DEFAULT.replace(experience_map={"relocalise_path_bound": False})
+    one_view = unbounded.replace(experience_map={"loop_closure_sequence": False})
+    for cfg, expected in ((unbounded, "create"), (one_view, "switch")):
+        far = _corridor(cfg, [(1.0, 0.0, 5), (2.0, 0.0, 6), (3.0, 0.0, 7)])
+        for i in range(3):
+            far.add_transition(i, i + 1, 1.0, 0.0, 0.0, 1.0)
+        assert _drive_and_see(far, 5, 0.5, 3) == expected
+
+
+def test_a_held_candidate_survives_save_and_load():
+    """The candidate is part of the map's state: a restored map closes the same loop."""
+    em = _corridor(DEFAULT, [(4.0, 0.0, 7), (5.0, 0.0, 8)])
+    assert _drive_and_see(em, 5, 4.0, 1) == "create"
+    restored = ExperienceMap(em.config)
+    restored.set_state(em.get_state())
+    for m in (em, restored):
+        assert _drive_and_see(m, 6, 1.0, 2) == "switch"
+    np.testing.assert_array_equal(em.links, restored.links)

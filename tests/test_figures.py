@@ -25,18 +25,10 @@ VARIANTS = {"fig4": (), "plaza1": (), "plaza2": ()}
 # Claims that do not hold in the measured runs (reports/<figure>/report.md has the numbers). They
 # stay as strict expected failures, so the day one of them holds the suite says so; they are not
 # loosened.
-ODOMETRIC_ALIAS = (
-    "with aliasing on the lap (scene 134 at places 4.4 m apart), the aliased view cell drags the pose "
-    "cells about 0.9 m at the same places every lap; under 1.5 deg/s of odometric bias (re-entries not "
-    "fused with the odometry) those re-entries bend the map: 0.84 m at seed 0 (0.11 m before aliasing "
-    "lay on the lap); 0.9 m is within the relocalisation bound (path since the latest re-entry + 1 m)"
-)
 KNOWN_FAILURES = {
     ("fig11", "g_h_two_pose_cell_loops"): "full floor: the pose cells relocalise the second lap of the room "
     "onto the first (lap centres 0.03 m apart; 0.30 m even with "
     "view injection off), see the figure's notes",
-    ("fig8", "odometric_experience_map"): ODOMETRIC_ALIAS,
-    ("fig8", "odometric_ratio_ratslam"): ODOMETRIC_ALIAS,
 }
 
 

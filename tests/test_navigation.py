@@ -209,7 +209,9 @@ def test_controller_progress_does_not_jump_to_a_later_part_of_the_route_nearby()
     pose comes to lie between the two arms, about as near the later one, the robot keeps to the
     route's part it is on instead of cutting across to the later arm (through the wall there)."""
     robot = _PointRobot()
-    robot.xy = np.array([[1.0, 1.0], [0.0, 1.0], [-1.0, 1.0], [-2.0, 1.0], [-2.0, 0.0], [0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
+    robot.xy = np.array(
+        [[1.0, 1.0], [0.0, 1.0], [-1.0, 1.0], [-2.0, 1.0], [-2.0, 0.0], [0.0, 0.0], [2.0, 0.0], [4.0, 0.0]]
+    )
     robot.edges = np.stack((np.arange(7), np.arange(1, 8)), axis=1)
     robot.pose = (1.0, 1.0, math.pi)
     ctrl = RouteController(robot, ControllerParams(smooth_m=0.0))
