@@ -163,9 +163,10 @@ class ReentryFusionConfig:
     """Re-entries whose innovations scale the odometry's noise up where it errs more (0 = off)."""
     odometry_trust_limit: float = param(2.0, ge=1, finite=False)
     """Noise scale beyond which re-entries ignore the odometry (a bias the model lacks; inf = never)."""
-    chain_fixes: bool = True
-    """The prediction's covariance may come from the latest re-entry's, carried by the odometry
-    (a filter), where that is smaller than the odometry's since the robot was last at the place."""
+    chain_fixes: bool = False
+    """The prediction's covariance may come from the latest re-entry's fused one, carried by the
+    odometry (a filter on a known map), where the innovation is likelier under it than under the
+    odometry's since the robot was last at the place. On for navigation, off for mapping."""
 
     def __post_init__(self) -> None:
         check_fields(self)
