@@ -5,7 +5,7 @@ the GTSAM pose graph; then ``n_goals`` goals drawn with the seed among the place
 driven in sequence, once on RatSLAM's experience map and once on the pose graph, in the pymunk
 world (:func:`harness.navigation.run_navigation`, whose docstring says how a goal reaches a map,
 how the robot is driven and how a goal is judged). RatSLAM runs with re-entry fusion weighted like
-the pose graph (:func:`harness.navigation.navigation_ratslam_config`).
+the pose graph, its fixes chained (:func:`harness.navigation.navigation_ratslam_config`).
 
 The run directory (staged: it appears only when complete, see :mod:`harness.run_dir`):
 
@@ -353,7 +353,9 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
         f"{m['settings']['success_radius_m']:g} m of the goal's place. Time ratio: time to arrival over "
         "the ground-truth shortest route along the world's route network at the robot's cruise speed "
         f"(goals reached only). Timeout: {m['settings']['timeout']}. RatSLAM runs with re-entry fusion "
-        "weighted like the pose graph's closures and odometry (`navigation_ratslam_config`). The world's "
+        "weighted like the pose graph's closures and odometry, its fixes chained, its odometry trusted "
+        "throughout and no loop-closure sequence (`navigation_ratslam_config`, whose module says why). "
+        "The world's "
         + (
             "look-alike regions show the same scenes (the world as shipped)."
             if m["settings"]["lookalikes"]
