@@ -16,7 +16,7 @@ import ratslam.navigation as rnav
 from harness.nav_controller import ControllerParams, RouteController
 from harness.nav_goals import draw_goal_ticks, route_network_distance
 from harness.navigation import run_navigation
-from ratslam import RatSLAM
+from ratslam import RatSLAM, RatSLAMConfig
 from worlds import load_world, simulate
 from worlds.drive import Drive, Observation
 from worlds.route import RouteFollower
@@ -263,6 +263,10 @@ def test_navigation_ratslam_config_mirrors_the_pose_graph_noise():
         pg.odometry.sigma_v_m_s,
         pg.odometry.sigma_w_rad_s,
     )
+    # a filter on a known map that trusts its odometry throughout, like the pose graph
+    assert rs.reentry.chain_fixes and rs.reentry.odometry_trust_limit == math.inf
+    assert not rs.experience_map.loop_closure_sequence
+    assert not RatSLAMConfig().reentry.chain_fixes  # mapping keeps the covariance since the place
 
 
 def test_controller_reports_a_failed_plan_and_stands_still():
