@@ -464,14 +464,19 @@ class ExperienceMap:
         self._innovations.add(nu, since_visit, self._view_cov)
         if not self._innovations.trusted(self.config.reentry.odometry_trust_limit):
             # the odometry has not shown that it keeps to its model: the pose cells alone
-            self._fix = self._noise.fix(self._view_cov, meas[2])
+            self._record_fix(self._view_cov, meas[2])
             return offset
         fused, cov = kalman_fuse(pred, scale * p_cov, nu, self._view_cov)
-        self._fix = self._noise.fix(cov, fused[2])
+        self._record_fix(cov, fused[2])
         xj, yj, tj = self._exp.cols["x"][j], self._exp.cols["y"][j], self._exp.cols["th"][j]
         cj, sj = math.cos(tj), math.sin(tj)
         dx, dy = fused[0] - xj, fused[1] - yj
         return (cj * dx + sj * dy, -sj * dx + cj * dy, _wrap_scalar(fused[2] - tj))
+
+    def _record_fix(self, cov: np.ndarray, heading: float) -> None:
+        """Keep the re-entry's pose covariance for the next prediction (``reentry.chain_fixes``)."""
+        if self.config.reentry.chain_fixes:
+            self._fix = self._noise.fix(cov, heading)
 
     def prediction_covariance(self, nu: np.ndarray, since_visit: np.ndarray, heading: float) -> np.ndarray:
         """Covariance (map frame) of the predicted pose relative to the re-entered experience.
