@@ -445,9 +445,7 @@ class ExperienceMap:
     def _robot_at(self, j: int, offset) -> tuple[float, float, float]:
         """The map pose of a robot at ``offset`` (forward, left, heading) in ``j``'s frame."""
         c = self._exp.cols
-        xj, yj, tj = c["x"][j], c["y"][j], c["th"][j]
-        cj, sj = math.cos(tj), math.sin(tj)
-        return (xj + cj * offset[0] - sj * offset[1], yj + sj * offset[0] + cj * offset[1], tj + offset[2])
+        return _compose((c["x"][j], c["y"][j], c["th"][j]), offset)
 
     def fuse_reentry(self, j: int, offset):
         """Kalman update at a re-entry into ``j``: the pose the pose cells give (``offset`` in
@@ -468,10 +466,9 @@ class ExperienceMap:
             return offset
         fused, cov = kalman_fuse(pred, scale * p_cov, nu, self._view_cov)
         self._record_fix(cov, fused[2])
-        xj, yj, tj = self._exp.cols["x"][j], self._exp.cols["y"][j], self._exp.cols["th"][j]
-        cj, sj = math.cos(tj), math.sin(tj)
-        dx, dy = fused[0] - xj, fused[1] - yj
-        return (cj * dx + sj * dy, -sj * dx + cj * dy, _wrap_scalar(fused[2] - tj))
+        c = self._exp.cols
+        fx, fy, fth = _between((c["x"][j], c["y"][j], c["th"][j]), fused)
+        return (fx, fy, _wrap_scalar(fth))
 
     def _record_fix(self, cov: np.ndarray, heading: float) -> None:
         """Keep the re-entry's pose covariance for the next prediction (``reentry.chain_fixes``)."""
