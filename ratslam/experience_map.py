@@ -180,13 +180,14 @@ class ExperienceMap:
         self._acc = np.zeros(4)  # x, y, phi, t
         self._path_since_reentry = 0.0  # m driven since the latest switch to a familiar experience
         self._path_since_enter = 0.0  # m driven since the current experience was entered
-        self._odometry = np.zeros(3)  # dead reckoning (x, y, θ), to compare consecutive re-entries
         self._candidate: _Candidate | None = None  # a loop closure waiting for the next scene
         self._neighbours: dict[int, list[tuple[int, float]]] = {}  # links both ways, with d_ij
-        # re-entry fusion (off with zero view sigmas): the odometry's noise along the path
+        # re-entry fusion (off with zero view sigmas)
         fusion = config.reentry
         self._fuse = fusion.enabled
-        self._noise = PathNoise(fusion.odom_speed_noise_m_s, fusion.odom_heading_noise_rad_s)
+        # the dead reckoning (also what consecutive re-entries are compared by) and, when fusing,
+        # the odometry's noise along the path
+        self._noise = PathNoise(fusion.odom_speed_noise_m_s, fusion.odom_heading_noise_rad_s, fusion.enabled)
         self._innovations = InnovationScale(fusion.innovation_window)
         self._fix = np.zeros(0)  # the latest re-entry's pose covariance (PathNoise.fix); empty: none
         self._view_cov = np.diag(
@@ -258,12 +259,7 @@ class ExperienceMap:
         acc[3] += dt
         self._path_since_reentry += abs(v_trans) * dt
         self._path_since_enter += abs(v_trans) * dt
-        odo = self._odometry
-        odo[2] += v_rot * dt
-        odo[0] += v_trans * dt * math.cos(odo[2])
-        odo[1] += v_trans * dt * math.sin(odo[2])
-        if self._fuse:
-            self._noise.integrate(dt, v_trans, v_rot)
+        self._noise.integrate(dt, v_trans, v_rot)
 
     # ------------------------------------------------------------------ eqs 2-9
     def energy(self, peak_cell: np.ndarray, view: int, ids: np.ndarray | None = None) -> np.ndarray:
@@ -410,12 +406,12 @@ class ExperienceMap:
             return
         if self._candidate is None or self._candidate.view != view:
             j, offset = held
-            self._candidate = _Candidate(j, int(view), _triple(offset), _triple(self._odometry))
+            self._candidate = _Candidate(j, int(view), _triple(offset), _triple(self._noise.pose))
 
     def _agrees(self, cand: _Candidate, j: int, offset) -> bool:
         """Whether the candidate's place, composed with the odometry driven since, is within the
         slack of where re-entering ``j`` at ``offset`` puts the robot."""
-        since = _between(cand.odometry, tuple(self._odometry))
+        since = _between(cand.odometry, tuple(self._noise.pose))
         x, y, _ = _compose(self._robot_at(cand.experience, cand.offset), since)
         xj, yj, _ = self._robot_at(j, offset)
         return math.hypot(x - xj, y - yj) <= self._slack_m
@@ -575,7 +571,6 @@ class ExperienceMap:
         s["em_innovations"] = self._innovations.get_state()
         s["em_fix"] = self._fix.copy()
         s["em_path_since_reentry"] = np.array([self._path_since_reentry, self._path_since_enter])
-        s["em_odometry"] = self._odometry.copy()
         cand = self._candidate
         s["em_candidate"] = (
             np.array([cand.experience, cand.view, *cand.offset, *cand.odometry]) if cand else np.zeros(0)
@@ -592,7 +587,6 @@ class ExperienceMap:
         self._innovations.set_state(s["em_innovations"])
         self._fix = np.asarray(s["em_fix"], dtype=float).copy()
         self._path_since_reentry, self._path_since_enter = (float(v) for v in s["em_path_since_reentry"])
-        self._odometry = np.asarray(s["em_odometry"], dtype=float).copy()
         c = s["em_candidate"]
         self._candidate = _Candidate(int(c[0]), int(c[1]), _triple(c[2:5]), _triple(c[5:8])) if len(c) else None
         self._divisor_key = None

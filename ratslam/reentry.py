@@ -40,19 +40,21 @@ N_SUMS = 9
 class PathNoise:
     """Dead reckoning with running sums of its first-order noise (module doc)."""
 
-    def __init__(self, sigma_v: float, sigma_w: float):
+    def __init__(self, sigma_v: float, sigma_w: float, track_noise: bool = True):
         self.sigma_v, self.sigma_w = float(sigma_v), float(sigma_w)
+        self.track_noise = track_noise  # False: the dead reckoning alone (the sums stay zero)
         self.pose = np.zeros(3)  # dead-reckoned x, y, θ
         self.sums = np.zeros(N_SUMS)
 
     def integrate(self, dt: float, v_trans: float, v_rot: float) -> None:
         """One tick of odometry, integrated as the experience map does (heading first)."""
         x, y, th = self.pose
-        qw, qv = (self.sigma_w * dt) ** 2, (self.sigma_v * dt) ** 2
         th += v_rot * dt
         c, s = math.cos(th), math.sin(th)
-        # the heading error of this tick acts from the position before its step
-        self.sums += (qw, qw * x, qw * y, qw * x * x, qw * y * y, qw * x * y, qv * c * c, qv * s * s, qv * c * s)
+        if self.track_noise:
+            qw, qv = (self.sigma_w * dt) ** 2, (self.sigma_v * dt) ** 2
+            # the heading error of this tick acts from the position before its step
+            self.sums += (qw, qw * x, qw * y, qw * x * x, qw * y * y, qw * x * y, qv * c * c, qv * s * s, qv * c * s)
         self.pose[:] = (x + v_trans * dt * c, y + v_trans * dt * s, th)
 
     def covariance_since(self, snapshot: np.ndarray, map_heading: float) -> np.ndarray:
