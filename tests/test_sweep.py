@@ -179,17 +179,27 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path):
     cmd = [sys.executable, "-m", "harness.cli", "sweep", str(path), "--out", str(out), "--workers", "1"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     runs = out / "runs"
+
+    def results_in_place():
+        # pathlib's "*" also matches the hidden ".<id>.partial-<pid>" staging directories: a kill
+        # between staging and the move leaves one behind, which is not a completed run
+        return {
+            p.parent.name: (p.stat().st_mtime_ns, p.read_bytes())
+            for p in runs.glob("*/result.json")
+            if not p.parent.name.startswith(".")
+        }
+
     deadline = time.time() + 120
-    while time.time() < deadline and len(list(runs.glob("*/result.json"))) < 2:
+    while time.time() < deadline and len(results_in_place()) < 2:
         time.sleep(0.05)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
-    before = {p.parent.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in runs.glob("*/result.json")}
+    before = results_in_place()
     assert 2 <= len(before) < 6, "the sweep should have been killed mid-way"
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert f"({len(before)} already done, {6 - len(before)} to run)" in r.stderr
-    after = {p.parent.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in runs.glob("*/result.json")}
+    after = results_in_place()
     assert len(after) == 6 and all(after[k] == v for k, v in before.items())
     assert not list(runs.glob(".*partial*"))
     rows = read_runs_csv(out / "runs.csv")
