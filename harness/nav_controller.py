@@ -19,11 +19,7 @@ of the goal point.
 
 Blocked. The map shows no walls, so a robot whose pose is off may drive into one. When forward
 commands have not moved the pose (the robot's own odometry) for ``blocked_s``, it reverses at half
-speed for ``back_off_s`` and plans afresh (a replan). A robot meeting a wall at an angle does not
-stop but slides along it, and its wheel odometry, which sees only the motion along its heading,
-puts it ever further off (at 60 degrees to the wall, a metre of slide moves the pose 0.43 m
-into the wall): when over ``obstructed_s`` of forward driving the pose moved less than
-``obstructed_ratio`` of the commanded distance, it backs off the same way.
+speed for ``back_off_s`` and plans afresh (a replan).
 
 Replanning (counted). The route is planned again when the pose is more than ``replan_m`` from the
 route ahead (the robot, or the map's idea of where it is, left the route), or when the distance
@@ -79,8 +75,6 @@ class ControllerParams:
     replan_interval_s: float = 5.0
     blocked_s: float = 2.0  # driving forward while the pose stays put this long: blocked
     back_off_s: float = 2.0  # ... then reverse at half speed this long and plan afresh
-    obstructed_s: float = 0.5  # over this much forward driving (0: off) ...
-    obstructed_ratio: float = 0.8  # ... the pose moving less than this share of it: back off too
 
 
 class RouteController:
@@ -99,7 +93,6 @@ class RouteController:
         self._v_last = 0.0  # the previous command's speed
         self._t_blocked = 0.0  # how long forward commands have not moved the pose
         self._backing = 0.0  # time left reversing off an obstacle
-        self._fwd = [0.0, 0.0, 0.0]  # forward driving: time, commanded distance, pose moved
         self._t = 0.0
         self._best, self._t_best, self._t_plan = math.inf, 0.0, -math.inf
 
@@ -195,32 +188,12 @@ class RouteController:
                 return True
             self._replan()
             return False
-        forward = self._v_last > 0.5 * p.speed
-        blocked = forward and moved < 0.2 * self._v_last * dt
+        blocked = self._v_last > 0.5 * p.speed and moved < 0.2 * self._v_last * dt
         self._t_blocked = self._t_blocked + dt if blocked else 0.0
-        if self._t_blocked >= p.blocked_s or self._obstructed(dt, moved, forward):
+        if self._t_blocked >= p.blocked_s:
             self._t_blocked, self._backing = 0.0, p.back_off_s
-            self._fwd = [0.0, 0.0, 0.0]
             return True
         return False
-
-    def _obstructed(self, dt: float, moved: float, forward: bool) -> bool:
-        """Whether the pose kept up with the forward commands over the latest ``obstructed_s``
-        (of uninterrupted forward driving) less than ``obstructed_ratio`` of the way."""
-        p = self.params
-        if p.obstructed_s <= 0.0:
-            return False
-        if not forward:
-            self._fwd = [0.0, 0.0, 0.0]
-            return False
-        f = self._fwd
-        f[0] += dt
-        f[1] += self._v_last * dt
-        f[2] += moved
-        if f[0] < p.obstructed_s:
-            return False
-        self._fwd = [0.0, 0.0, 0.0]
-        return f[2] < p.obstructed_ratio * f[1]
 
 
 def _project_on_route(xy, pts: np.ndarray, along: np.ndarray, s0: float, window: float, tolerance: float):
