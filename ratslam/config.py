@@ -139,6 +139,11 @@ class ExperienceMapConfig:
     loop_closure_sequence: bool = True
     """A re-entry the map's links do not already lead to (a new loop closure) waits until the next
     scene's re-entry agrees with it, as a sequence (False = the paper's: one view). See the docs."""
+    odometry_gate_chi2: float = param(100.0, gt=0, finite=False)
+    """No re-entry whose innovation lies beyond this squared Mahalanobis distance of the odometry's
+    prediction since the robot was last at the place, its noise scaled as the re-entries of the
+    odometry have shown, refused ones included (inf = no gate). Needs the re-entry fusion and acts
+    only while the odometry is trusted (``reentry.odometry_trust_limit``). See the docs section."""
 
     def __post_init__(self) -> None:
         check_fields(self)

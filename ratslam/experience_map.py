@@ -36,6 +36,18 @@ re-entry agrees with it: the candidate's place composed with the odometry since 
 match, as in sequence-based place recognition). Until then the map goes on as if no experience
 matched (eqs 10-11).
 
+Odometry gate (``experience_map.odometry_gate_chi2``, not in the paper): the path bound assumes
+the odometry may have erred by all of the path since the latest re-entry; early in an exploration
+that is tens of metres, and a look-alike room seen for the first time re-enters the other room,
+scene after scene in sequence. With the gate a re-entry is refused when its innovation (the pose
+cells' pose minus the prediction) lies beyond the gate's squared Mahalanobis distance under the
+odometry's covariance since the robot was last at the place, scaled by how much more the
+odometry has erred than its model (the median statistic of :class:`ratslam.reentry.InnovationScale`
+over the re-entries taken and, once per scene, those refused, so that a bias the model lacks,
+which makes every loop closure look unlikely, opens the gate, while one look-alike room among
+well-modelled re-entries does not). The gate trusts the odometry's model, so it acts only while
+the re-entries show the odometry keeps to it (``reentry.odometry_trust_limit``).
+
 Map correction (eqs 12-14), every tick, all experiences at once (Jacobi)::
 
     Δθ_i = α_θ [ Σ_j (θ_j - θ_i - φ_ij) + Σ_k (θ_k - θ_i + φ_ki) ]
@@ -189,6 +201,10 @@ class ExperienceMap:
         # the odometry's noise along the path
         self._noise = PathNoise(fusion.odom_speed_noise_m_s, fusion.odom_heading_noise_rad_s, fusion.enabled)
         self._innovations = InnovationScale(fusion.innovation_window)
+        # the odometry gate's noise scale: fed by the re-entries taken and, once per scene, by
+        # those it refused (-2: no scene refused since the latest re-entry)
+        self._gate_scale = InnovationScale(fusion.innovation_window)
+        self._gate_view = -2
         self._fix = np.zeros(0)  # the latest re-entry's pose covariance (PathNoise.fix); empty: none
         self._view_cov = np.diag(
             [fusion.position_sigma_m**2, fusion.position_sigma_m**2, math.radians(fusion.heading_sigma_deg) ** 2]
@@ -380,7 +396,31 @@ class ExperienceMap:
             px, py, _ = self.pose
             if math.hypot(x - px, y - py) > self._path_since_reentry + self._slack_m:
                 return None
+        if (
+            self.current >= 0
+            and self._fuse
+            and math.isfinite(cfg.odometry_gate_chi2)
+            and self._innovations.trusted(self.config.reentry.odometry_trust_limit)
+            and self._gated(j, offset)
+        ):
+            return None
         return offset
+
+    def _gated(self, j: int, offset) -> bool:
+        """Whether ``experience_map.odometry_gate_chi2`` refuses re-entering ``j`` at ``offset``
+        (module doc, odometry gate); a refused scene's innovation goes into the gate's scale."""
+        pred = self.pose
+        nu = innovation(pred, self._robot_at(j, offset))
+        since_visit = self._noise.covariance_since(self._exp.cols["noise"][j], pred[2])
+        gate = self._gate_scale
+        d2 = float(nu @ np.linalg.solve(gate.scale * since_visit + self._view_cov, nu))
+        if d2 <= self.config.experience_map.odometry_gate_chi2:
+            return False
+        view = int(self._exp.cols["view"][j])
+        if view != self._gate_view:  # one refused innovation per scene
+            gate.add(nu, since_visit, self._view_cov)
+            self._gate_view = view
+        return True
 
     @property
     def _slack_m(self) -> float:
@@ -456,6 +496,8 @@ class ExperienceMap:
         scale = self._innovations.scale
         # the odometry's noise scale is judged on loop-sized paths, whichever covariance is used
         self._innovations.add(nu, since_visit, self._view_cov)
+        self._gate_scale.add(nu, since_visit, self._view_cov)
+        self._gate_view = -2
         if not self._innovations.trusted(self.config.reentry.odometry_trust_limit):
             # the odometry has not shown that it keeps to its model: the pose cells alone
             self._record_fix(self._view_cov, meas[2])
@@ -569,6 +611,8 @@ class ExperienceMap:
         s["em_acc"] = self._acc.copy()
         s["em_path_noise"] = self._noise.get_state()
         s["em_innovations"] = self._innovations.get_state()
+        s["em_gate_scale"] = self._gate_scale.get_state()
+        s["em_gate_view"] = np.array([self._gate_view], dtype=np.int64)
         s["em_fix"] = self._fix.copy()
         s["em_path_since_reentry"] = np.array([self._path_since_reentry, self._path_since_enter])
         cand = self._candidate
@@ -585,6 +629,9 @@ class ExperienceMap:
         self._acc = np.asarray(s["em_acc"], dtype=float).copy()
         self._noise.set_state(s["em_path_noise"])
         self._innovations.set_state(s["em_innovations"])
+        if "em_gate_scale" in s:  # saved before the odometry gate: its scale starts afresh
+            self._gate_scale.set_state(s["em_gate_scale"])
+            self._gate_view = int(s["em_gate_view"][0])
         self._fix = np.asarray(s["em_fix"], dtype=float).copy()
         self._path_since_reentry, self._path_since_enter = (float(v) for v in s["em_path_since_reentry"])
         c = s["em_candidate"]

@@ -545,3 +545,63 @@ def test_a_held_candidate_survives_save_and_load():
     for m in (em, restored):
         assert _drive_and_see(m, 6, 1.0, 2) == "switch"
     np.testing.assert_array_equal(em.links, restored.links)
+
+
+# --- odometry gate: a re-entry the odometry's error model rules out ----------------------------
+
+GATED = DEFAULT.replace(experience_map={"loop_closure_sequence": False})  # the default gate alone
+
+
+def _back_at_the_start(cfg, places) -> ExperienceMap:
+    """Experience 0 at the origin; experiences 1, 2, ... at ``places`` (x, y), views 7, 8, ...,
+    all laid at the start. The robot drove 40 m out and 40 m back (1 m/s, 1 s ticks) and is at the
+    origin again, its heading unchanged: 80 m of path in 0.1 s ticks, so the path bound allows
+    81 m; the odometry's model (0.01 m/s, 0.01 rad/s per tick) puts it within 0.7 m (1 sigma)."""
+    em = ExperienceMap(cfg)
+    em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 0, 0)
+    for k, (x, y) in enumerate(places, start=1):
+        em.add_experience((x, y, 0.0), (10.0 + 4 * x, 10.0 + 4 * y, 0.0), 6 + k, k)
+    em._enter(0, 0)
+    for v in [1.0] * 400 + [-1.0] * 400:
+        em.integrate(0.1, v, 0.0)
+    return em
+
+
+def _see(em: ExperienceMap, j: int) -> str:
+    return em.update(9, em.cells[j].copy(), int(em.views[j]))
+
+
+def test_odometry_gate_is_on_by_default_and_off_in_the_papers_reentries():
+    assert DEFAULT.experience_map.odometry_gate_chi2 == 100.0
+    assert not CFG.reentry.enabled  # the gate needs the fusion's odometry model
+
+
+def test_odometry_gate_refuses_a_place_the_odometry_rules_out():
+    """After 80 m of odometry good to its model, a place 8 m to the side (a look-alike) lies far
+    beyond the odometry's error (d^2 about 130 > 100): refused, a new experience instead; without
+    the gate the path bound (81 m) lets it in. A place 0.3 m off is taken either way."""
+    ungated = GATED.replace(experience_map={"odometry_gate_chi2": math.inf})
+    assert _see(_back_at_the_start(GATED, [(0.0, 8.0)]), 1) == "create"
+    assert _see(_back_at_the_start(ungated, [(0.0, 8.0)]), 1) == "switch"
+    assert _see(_back_at_the_start(GATED, [(0.0, 0.3)]), 1) == "switch"
+
+
+def test_odometry_gate_opens_when_refused_scenes_show_the_odometry_errs_more():
+    """The gate's noise scale is learnt from the re-entries it refuses too: with ten well-modelled
+    re-entries in its window one refused scene leaves it shut, but a run of refused scenes all
+    8 m off (a bias the model lacks, not one look-alike) opens it."""
+    em = _back_at_the_start(GATED, [(0.0, 8.0)] * 12)
+    for _ in range(10):
+        em._gate_scale.add(np.array([0.05, 0.05, 0.01]), np.diag([0.01, 0.01, 1e-4]), em._view_cov)
+    outcomes = [_see(em, j) for j in range(1, 13)]
+    assert outcomes[0] == "create" and outcomes[1] == "create"
+    assert "switch" in outcomes
+
+
+def test_the_odometry_gate_scale_survives_save_and_load():
+    em = _back_at_the_start(GATED, [(0.0, 8.0)] * 3)
+    assert _see(em, 1) == "create"
+    restored = ExperienceMap(em.config)
+    restored.set_state(em.get_state())
+    assert restored._gate_scale.scale == em._gate_scale.scale > 1.0
+    assert restored._gate_view == em._gate_view == int(em.views[1])
