@@ -45,8 +45,9 @@ odometry's covariance since the robot was last at the place, scaled by how much 
 odometry has erred than its model (the median statistic of :class:`ratslam.reentry.InnovationScale`
 over the re-entries taken and, once per scene, those refused, so that a bias the model lacks,
 which makes every loop closure look unlikely, opens the gate, while one look-alike room among
-well-modelled re-entries does not). The gate trusts the odometry's model, so it acts only while
-the re-entries show the odometry keeps to it (``reentry.odometry_trust_limit``).
+well-modelled re-entries does not). The gate trusts the odometry's model, so it acts only once
+three re-entries have been taken (the first loop closure of a run has nothing to judge the
+odometry by) and while they show the odometry keeps to its model (``reentry.odometry_trust_limit``).
 
 Map correction (eqs 12-14), every tick, all experiences at once (Jacobi)::
 
@@ -75,6 +76,7 @@ from .reentry import N_SUMS, InnovationScale, PathNoise, innovation, kalman_fuse
 
 _PI = math.pi
 _NO_DIVISOR = np.zeros(0)
+_GATE_EVIDENCE = 3  # re-entries that must have shown the odometry's errors before the gate acts
 
 
 def wrap_angle(a):
@@ -400,6 +402,7 @@ class ExperienceMap:
             self.current >= 0
             and self._fuse
             and math.isfinite(cfg.odometry_gate_chi2)
+            and self._innovations.count >= _GATE_EVIDENCE
             and self._innovations.trusted(self.config.reentry.odometry_trust_limit)
             and self._gated(j, offset)
         ):

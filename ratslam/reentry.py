@@ -167,6 +167,11 @@ class InnovationScale:
         if len(self._nu) == self.window:  # a median of fewer re-entries is too easily one outlier
             self.peak_scale = max(self.peak_scale, self.scale)
 
+    @property
+    def count(self) -> int:
+        """How many re-entries the scale is measured on (at most ``window``)."""
+        return len(self._nu)
+
     def trusted(self, limit: float) -> bool:
         """Whether the odometry keeps to its model: the scale, once measured over a full window of
         re-entries, has never exceeded ``limit`` (a bias the model lacks does not go away)."""

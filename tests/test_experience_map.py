@@ -556,7 +556,8 @@ def _back_at_the_start(cfg, places) -> ExperienceMap:
     """Experience 0 at the origin; experiences 1, 2, ... at ``places`` (x, y), views 7, 8, ...,
     all laid at the start. The robot drove 40 m out and 40 m back (1 m/s, 1 s ticks) and is at the
     origin again, its heading unchanged: 80 m of path in 0.1 s ticks, so the path bound allows
-    81 m; the odometry's model (0.01 m/s, 0.01 rad/s per tick) puts it within 0.7 m (1 sigma)."""
+    81 m; the odometry's model (0.01 m/s, 0.01 rad/s per tick) puts it within 0.7 m (1 sigma).
+    Three re-entries on the way showed the odometry keeping to its model."""
     em = ExperienceMap(cfg)
     em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 0, 0)
     for k, (x, y) in enumerate(places, start=1):
@@ -564,6 +565,8 @@ def _back_at_the_start(cfg, places) -> ExperienceMap:
     em._enter(0, 0)
     for v in [1.0] * 400 + [-1.0] * 400:
         em.integrate(0.1, v, 0.0)
+    for _ in range(3):
+        em._innovations.add(np.array([0.05, 0.05, 0.01]), np.diag([0.01, 0.01, 1e-4]), em._view_cov)
     return em
 
 
@@ -605,3 +608,11 @@ def test_the_odometry_gate_scale_survives_save_and_load():
     restored.set_state(em.get_state())
     assert restored._gate_scale.scale == em._gate_scale.scale > 1.0
     assert restored._gate_view == em._gate_view == int(em.views[1])
+
+
+def test_odometry_gate_waits_for_three_reentries():
+    """With no re-entry taken yet nothing shows how good the odometry is (a vehicle's odometry
+    under a small robot's noise model): the run's first loop closure is not gated."""
+    em = _back_at_the_start(GATED, [(0.0, 8.0)])
+    em._innovations = InnovationScale(15)
+    assert _see(em, 1) == "switch"
