@@ -412,9 +412,7 @@ class ExperienceMap:
     def _gated(self, j: int, offset) -> bool:
         """Whether ``experience_map.odometry_gate_chi2`` refuses re-entering ``j`` at ``offset``
         (module doc, odometry gate); a refused scene's innovation goes into the gate's scale."""
-        pred = self.pose
-        nu = innovation(pred, self._robot_at(j, offset))
-        since_visit = self._noise.covariance_since(self._exp.cols["noise"][j], pred[2])
+        _, _, nu, since_visit = self._reentry_innovation(j, offset)
         gate = self._gate_scale
         d2 = float(nu @ np.linalg.solve(gate.scale * since_visit + self._view_cov, nu))
         if d2 <= self.config.experience_map.odometry_gate_chi2:
@@ -486,15 +484,20 @@ class ExperienceMap:
         c = self._exp.cols
         return _compose((c["x"][j], c["y"][j], c["th"][j]), offset)
 
+    def _reentry_innovation(self, j: int, offset):
+        """Re-entering ``j`` at ``offset``: the predicted pose, the pose the pose cells give, the
+        innovation (their difference) and the odometry's covariance since the last visit to ``j``."""
+        pred = self.pose
+        meas = self._robot_at(j, offset)
+        since_visit = self._noise.covariance_since(self._exp.cols["noise"][j], pred[2])
+        return pred, meas, innovation(pred, meas), since_visit
+
     def fuse_reentry(self, j: int, offset):
         """Kalman update at a re-entry into ``j``: the pose the pose cells give (``offset`` in
         ``j``'s frame; covariance from the reentry sigmas) fused with the pose the map and the
         odometry predict (:meth:`prediction_covariance`). Returns the fused pose as an offset in
         ``j``'s frame."""
-        meas = self._robot_at(j, offset)
-        pred = self.pose
-        nu = innovation(pred, meas)
-        since_visit = self._noise.covariance_since(self._exp.cols["noise"][j], pred[2])
+        pred, meas, nu, since_visit = self._reentry_innovation(j, offset)
         p_cov = self.prediction_covariance(nu, since_visit, pred[2])
         scale = self._innovations.scale
         # the odometry's noise scale is judged on loop-sized paths, whichever covariance is used

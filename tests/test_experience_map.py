@@ -554,9 +554,9 @@ GATED = DEFAULT.replace(experience_map={"loop_closure_sequence": False})  # the 
 
 def _back_at_the_start(cfg, places) -> ExperienceMap:
     """Experience 0 at the origin; experiences 1, 2, ... at ``places`` (x, y), views 7, 8, ...,
-    all laid at the start. The robot drove 40 m out and 40 m back (1 m/s, 1 s ticks) and is at the
-    origin again, its heading unchanged: 80 m of path in 0.1 s ticks, so the path bound allows
-    81 m; the odometry's model (0.01 m/s, 0.01 rad/s per tick) puts it within 0.7 m (1 sigma).
+    all laid at the start. The robot drove 40 m out and 40 m back (1 m/s, 0.1 s ticks) and is at
+    the origin again, its heading unchanged: 80 m of path, so the path bound allows 81 m; the
+    odometry's model (0.01 m/s, 0.01 rad/s per tick) puts it within 0.7 m (1 sigma).
     Three re-entries on the way showed the odometry keeping to its model."""
     em = ExperienceMap(cfg)
     em.add_experience((0.0, 0.0, 0.0), (10.0, 10.0, 0.0), 0, 0)
@@ -577,6 +577,7 @@ def _see(em: ExperienceMap, j: int) -> str:
 def test_odometry_gate_is_on_by_default_and_off_in_the_papers_reentries():
     assert DEFAULT.experience_map.odometry_gate_chi2 == 100.0
     assert not CFG.reentry.enabled  # the gate needs the fusion's odometry model
+    assert _see(_back_at_the_start(CFG, [(0.0, 8.0)]), 1) == "switch"
 
 
 def test_odometry_gate_refuses_a_place_the_odometry_rules_out():
