@@ -177,7 +177,7 @@ class YawBiasConfig:
     isam2_relinearize_threshold_rad_s: float = param(1e-4, ge=0)
     """iSAM2 relinearisation threshold of the bias; far below the poses'. See the docs section."""
     search: bool = True
-    """Search the bias from revisited scene numbers (:mod:`baselines.yaw_bias`); ignored with ``estimate``."""
+    """Search the bias from revisited scene numbers (:mod:`ratslam.yaw_bias`); ignored with ``estimate``."""
     search_max_rad_s: float = param(math.radians(3.0), gt=0)
     """Largest |bias| searched (3 deg/s). See the docs section."""
     search_step_rad_s: float = param(math.radians(0.05), gt=0)

@@ -18,36 +18,9 @@ import math
 
 import numpy as np
 
-_SMALL = 1e-6
+from ratslam.arcs import SMALL_TURN, cumulative_poses, integrate, tick_increments
 
-
-def tick_increments(dt: np.ndarray, v: np.ndarray, w: np.ndarray, bias: float = 0.0):
-    """Per-tick motion (dx, dy, dtheta), each in the frame at the start of its tick."""
-    a = v * dt
-    phi = (w - bias) * dt
-    small = np.abs(phi) < _SMALL
-    safe = np.where(small, 1.0, phi)
-    sin_term = np.where(small, 1.0 - phi * phi / 6.0, np.sin(safe) / safe)
-    cos_term = np.where(small, phi / 2.0 - phi**3 / 24.0, (1.0 - np.cos(safe)) / safe)
-    return a * sin_term, a * cos_term, phi
-
-
-def cumulative_poses(dt: np.ndarray, v: np.ndarray, w: np.ndarray, bias: float = 0.0) -> np.ndarray:
-    """Poses (n, 3) after each tick, relative to the pose before the first tick."""
-    dx, dy, phi = tick_increments(dt, v, w, bias)
-    theta = np.cumsum(phi)
-    before = theta - phi
-    c, s = np.cos(before), np.sin(before)
-    x = np.cumsum(c * dx - s * dy)
-    y = np.cumsum(s * dx + c * dy)
-    return np.stack([x, y, theta], axis=1)
-
-
-def integrate(dt: np.ndarray, v: np.ndarray, w: np.ndarray, bias: float = 0.0) -> np.ndarray:
-    """Relative pose (x, y, theta) after all ticks (theta not wrapped)."""
-    if len(dt) == 0:
-        return np.zeros(3)
-    return cumulative_poses(dt, v, w, bias)[-1]
+__all__ = ["cumulative_poses", "integrate", "relative_covariance", "tick_increments"]
 
 
 def relative_covariance(
@@ -113,7 +86,7 @@ class TickBuffer:
         self.w.append(w)
         a = v * dt
         phi = (w - bias) * dt
-        if abs(phi) < _SMALL:
+        if abs(phi) < SMALL_TURN:
             dx, dy = a * (1.0 - phi * phi / 6.0), a * (phi / 2.0 - phi**3 / 24.0)
         else:
             dx, dy = a * math.sin(phi) / phi, a * (1.0 - math.cos(phi)) / phi

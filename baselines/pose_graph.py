@@ -9,7 +9,7 @@ one contradicts the estimate; keyframes with only odometry wait for the next
 update, up to ``optimisation.odometry_batch_keyframes``); optimise online with iSAM2 (robust,
 Gaussian or GNC-verified closures).  A constant yaw-rate bias is either a graph variable
 (``yaw_bias.estimate``) or, by default, searched from revisited scene numbers
-(:mod:`baselines.yaw_bias`): when one is adopted the graph is rebuilt from the stored ticks
+(:mod:`ratslam.yaw_bias`): when one is adopted the graph is rebuilt from the stored ticks
 with the corrected odometry.  The SLAM never sees ground truth.
 """
 
@@ -21,6 +21,8 @@ import numbers
 import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, X
+
+from ratslam.yaw_bias import YawBiasSearch
 
 from .closures import SceneIndex
 from .config import PoseGraphConfig
@@ -35,9 +37,18 @@ from .factors import (
 )
 from .odometry import TickBuffer, integrate, relative_covariance
 from .optimizers import batch_lm, make_isam2, run_gnc
-from .yaw_bias import YawBiasSearch
 
 BIAS_KEY = B(0)
+
+
+def bias_search(cfg: PoseGraphConfig) -> YawBiasSearch:
+    """The yaw-rate bias search a pose graph of configuration ``cfg`` runs: its ``yaw_bias``
+    fields, revisits scored with its closures' own travel and sigmas."""
+    yb, lc = cfg.yaw_bias, cfg.closures
+    return YawBiasSearch(
+        yb.search_max_rad_s, yb.search_step_rad_s, yb.search_max_span_s, lc.min_travel_m,
+        lc.sigma_xy_m, lc.sigma_theta_rad, yb.search_kernel, yb.search_min_gain,
+    )  # fmt: skip
 
 
 class PoseGraphSLAM:
@@ -61,7 +72,7 @@ class PoseGraphSLAM:
         yb = cfg.yaw_bias
         self._search: YawBiasSearch | None = None
         if yb.search and not yb.estimate:
-            self._search = YawBiasSearch.from_config(cfg)
+            self._search = bias_search(cfg)
         self._ticks: list[tuple[float, float, float, int]] = []  # every tick, for a rebuild
         self._rebuilds = 0
         # The map frame read out: the graph's own frame, moved after a rebuild onto the frame

@@ -340,7 +340,7 @@ def _bias_figure(name: str, bias: float) -> Figure:
             "has grown that far, while each of RatSLAM's experience transitions (about 1 m) carries only "
             "a few degrees of it. In the 'odometric' variant the pose graph's default searches a constant "
             "bias within +-3 deg/s from revisited scenes and, once two revisits agree on one, rebuilds its "
-            "graph with corrected odometry (baselines/yaw_bias.py); at 3 deg/s and beyond (Figs 9, 10) "
+            "graph with corrected odometry (ratslam/yaw_bias.py); at 3 deg/s and beyond (Figs 9, 10) "
             "a lap's heading error passes 180 deg and the bias is confused with its alias b - 360/lap. "
             "In the odometric variants RatSLAM's re-entries take the pose cells' pose alone (reentry fusion "
             "off; the relocalisation bound stays): the default fusion trusts the odometry until its "

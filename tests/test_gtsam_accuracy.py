@@ -143,7 +143,7 @@ def test_yaw_bias_3deg_needs_the_bias_variable():
     loop and recovers the bias.  Measured (seed 0): odometry 3.10 m; gaussian 3.09,
     robust 3.12, gnc 3.12 m; robust + bias 0.091 m with b = 2.995 deg/s
     (seeds 1/2: 0.104/0.114 m, 3.001/3.013 deg/s).  With the default searched bias
-    (issue 13; +-3 deg/s, baselines/yaw_bias.py) gaussian and robust adopt the lap's alias
+    (issue 13; +-3 deg/s, ratslam/yaw_bias.py) gaussian and robust adopt the lap's alias
     -2.75 deg/s (3 - 360/63) and stay near odometry: 2.96 m each.
     """
     odo = odometry_ate(*LOOP, bias=3.0)

@@ -1,4 +1,4 @@
-"""The pose graph's searched yaw-rate bias (baselines/yaw_bias.py), the default since issue 13.
+"""The pose graph's searched yaw-rate bias (ratslam/yaw_bias.py), the default since issue 13.
 
 Synthetic streams: the noiseless-route square of tests/test_gtsam_pose_graph.py (4 m sides,
 1 m x 90 deg scene cells, 0.01 rad/s yaw-rate noise), a lap every 61 s, with a constant bias
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
-from baselines.pose_graph import _fit_se2
-from baselines.yaw_bias import YawBiasSearch, _two_apart
+from baselines.pose_graph import _fit_se2, bias_search
+from ratslam.yaw_bias import _two_apart
 from tests.helpers import DT
 
 from .test_gtsam_pose_graph import square_stream
@@ -36,7 +36,7 @@ def with_false_positives(stream, rate, seed=1):
 
 
 def search(stream, **changes):
-    s = YawBiasSearch.from_config(PoseGraphConfig().replace(yaw_bias=changes))
+    s = bias_search(PoseGraphConfig().replace(yaw_bias=changes))
     adopted = []
     dt, v, w, scene, _ = stream
     for k, (a, b, c, d) in enumerate(zip(dt, v, w, scene)):

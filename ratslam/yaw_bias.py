@@ -1,5 +1,8 @@
 """A constant yaw-rate (gyro) bias searched from the odometry of repeated scene numbers.
 
+Used by both systems: the pose graph (``PoseGraphConfig.yaw_bias``) and RatSLAM
+(``RatSLAMConfig.yaw_bias``; see :meth:`ratslam.experience_map.ExperienceMap.remove_yaw_bias`).
+
 The pose graph's wrapped heading residuals cannot close a loop whose heading error has grown
 past about 180 deg (1.5 deg/s over a 72 s lap is already 108 deg; see the traps in DESIGN.md),
 and the estimated bias *variable* (``yaw_bias.estimate``) is pulled into a wrong basin by a few
@@ -37,7 +40,8 @@ false closures.  This module instead searches the bias, outside the graph:
   1.5 deg/s with a 10 deg/s range adopts -4.2).  Hence the default 3 deg/s.
 
 The pose graph then rebuilds itself from the stored ticks with the corrected odometry (see
-``PoseGraphSLAM._rebuild``).  Only odometry and scene numbers are used, never ground
+``PoseGraphSLAM._rebuild``); RatSLAM corrects its transitions and feeds the corrected yaw rate
+on.  Only odometry and scene numbers are used, never ground
 truth; everything is a deterministic function of the stream.
 """
 
@@ -46,14 +50,10 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .odometry import integrate
-
-if TYPE_CHECKING:
-    from .config import PoseGraphConfig
+from .arcs import integrate
 
 CHUNK_MAX_S = 1.0
 """Longest chunk (s): keeps the bias's bend of a chunk small (10 deg/s bends 1 s by 10 deg)."""
@@ -82,22 +82,6 @@ class YawBiasSearch:
     Feed every tick with :meth:`add`; it returns a bias (rad/s) when one is adopted, else
     None.  ``bias`` is the adopted bias (0 until one is).
     """
-
-    @classmethod
-    def from_config(cls, cfg: PoseGraphConfig) -> YawBiasSearch:
-        """The search a pose graph of configuration ``cfg`` runs (its ``yaw_bias`` fields, and
-        its closures' travel and sigmas to score revisits by)."""
-        yb, lc = cfg.yaw_bias, cfg.closures
-        return cls(
-            yb.search_max_rad_s,
-            yb.search_step_rad_s,
-            yb.search_max_span_s,
-            lc.min_travel_m,
-            lc.sigma_xy_m,
-            lc.sigma_theta_rad,
-            yb.search_kernel,
-            yb.search_min_gain,
-        )
 
     def __init__(
         self,
