@@ -54,6 +54,8 @@ the simulator's own streams get exactly the defaults. The rules:
     closures.min_travel_m = 4 m * s
     odometry.sigma_v_m_s, odometry.sigma_w_rad_s = 0.01 * laddered noise ratio, each replaced by
                                  the revisits' most likely value if the revisits reject it (see above)
+  RatSLAM's yaw-rate bias search: yaw_bias.revisit_min_travel_m and revisit_sigma_xy_m as the
+    pose graph's closures.min_travel_m and sigma_xy_m (the same search, the same revisits).
   RatSLAM (cells per tick c = laddered step / pose_cells.cell_size_m):
     pose_cells.trans_gain: the lattice-lag compensation depends on c. Measured packet speed / applied
       shift of the default network (straight runs, headings 0 and 35 deg): 0.96/0.95 at 0.17
@@ -303,6 +305,13 @@ def derive_configs(
         rs_new = rs.replace(pose_cells={"cell_size_m": cell, "trans_gain": trans_gain(cpt)})
     pg_new = pg
     if k_scene != 1.0:
+        yb = rs.yaw_bias  # RatSLAM's bias search scores revisits as the pose graph does
+        rs_new = rs_new.replace(
+            yaw_bias={
+                "revisit_min_travel_m": yb.revisit_min_travel_m * k_scene,
+                "revisit_sigma_xy_m": yb.revisit_sigma_xy_m * k_scene,
+            }
+        )
         pg_new = pg_new.replace(
             keyframes={"distance_m": pg.keyframes.distance_m * k_scene},
             closures={

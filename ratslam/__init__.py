@@ -7,6 +7,7 @@ from .config import (
     PoseCellConfig,
     RatSLAMConfig,
     ReentryFusionConfig,
+    YawBiasConfig,
 )
 from .pipeline import RatSLAM
 
@@ -18,4 +19,5 @@ __all__ = [
     "RatSLAM",
     "RatSLAMConfig",
     "ReentryFusionConfig",
+    "YawBiasConfig",
 ]

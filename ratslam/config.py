@@ -187,6 +187,34 @@ class ReentryFusionConfig:
         return self.position_sigma_m > 0.0
 
 
+@dataclass(frozen=True)
+class YawBiasConfig:
+    """A constant yaw-rate (gyro) bias in the odometry, searched from revisited scene numbers and
+    taken off: not in the paper, on by default (:mod:`ratslam.yaw_bias`, the same search as the
+    pose graph's; docs/configuration.md#ratslam-yaw-rate-bias)."""
+
+    SECTION: ClassVar[str] = "yaw_bias"
+
+    search: bool = True
+    """Search the bias and, once one is adopted, correct the transitions and the yaw rate fed on."""
+    search_max_deg_s: float = param(3.0, gt=0)
+    """Largest |bias| searched (below the alias 360 / lap time of the loops driven)."""
+    search_step_deg_s: float = param(0.05, gt=0)
+    """Grid step of the search (the minimum is refined by a parabola)."""
+    search_max_span_s: float = param(300.0, gt=0)
+    """Longest time between two sightings of a scene that still scores a revisit."""
+    search_kernel: float = param(3.0, gt=0)
+    """Geman-McClure width (Mahalanobis units) of a revisit's cost."""
+    search_min_gain: float = param(4.0, gt=0)
+    """A bias is adopted only if it lowers the summed revisit cost by at least this."""
+    revisit_min_travel_m: float = param(4.0, ge=0)
+    """Path between two sightings of a scene for them to score a revisit."""
+    revisit_sigma_xy_m: float = param(1.0 / math.sqrt(6.0), gt=0)
+    """How well a scene places the robot (per axis; uniform over a 1 m scene cell)."""
+    revisit_sigma_heading_deg: float = param(90.0 / math.sqrt(6.0), gt=0)
+    """How well a scene gives the heading (one 90 deg sector); also the re-lay threshold below."""
+
+
 # The paper's re-entries: wherever the pose cells say (no fusion with the odometry, no bound on
 # how far a view may move the robot, one view enough to close a loop). ``RatSLAMConfig().replace(**PAPER_REENTRIES)``.
 PAPER_REENTRIES: dict[str, dict[str, Any]] = {
@@ -204,6 +232,7 @@ class RatSLAMConfig:
     local_view: LocalViewConfig = field(default_factory=LocalViewConfig)
     experience_map: ExperienceMapConfig = field(default_factory=ExperienceMapConfig)
     reentry: ReentryFusionConfig = field(default_factory=ReentryFusionConfig)
+    yaw_bias: YawBiasConfig = field(default_factory=YawBiasConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)

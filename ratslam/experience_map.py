@@ -608,6 +608,62 @@ class ExperienceMap:
             cfg.alpha_theta,
         )
 
+    # ------------------------------------------------------------------ yaw-rate bias
+    def remove_yaw_bias(self, change: float, elapsed_s: float, relay_heading: float) -> bool:
+        """The odometry's yaw rate was found to carry ``change`` rad/s more bias than assumed so
+        far (:mod:`ratslam.yaw_bias`); the caller feeds the corrected rate from now on. Every
+        transition loses the bias's turn over its elapsed time dt_ij: φ_ij by change·dt_ij, the
+        bearing θ_ij by half that (the path turned gradually).
+
+        Where the change turns the heading by more than ``relay_heading`` (rad) over the
+        ``elapsed_s`` the map spans, the map correction (eqs 12-14, a local relaxation) has not
+        absorbed it and would need thousands of passes to spread a turn that grows along the
+        whole map: each experience is then moved by what the corrected transitions do to the
+        chain by which it was created (laid out from its creating experience with the old and
+        with the new transitions, the difference added to its pose); the relaxation does the
+        rest. The re-entries' innovation statistics start afresh: they measured the biased
+        odometry. Returns whether the experiences were moved."""
+        m = self._link.n
+        lk = self._link.cols
+        turn = change * lk["dt"][:m]
+        relay = self._exp.n > 1 and abs(change) * elapsed_s > relay_heading
+        if relay:
+            before = self._creation_layout(lk["theta"][:m], lk["phi"][:m])
+        lk["phi"][:m] -= turn
+        lk["theta"][:m] -= 0.5 * turn
+        if relay:
+            moved = self._creation_layout(lk["theta"][:m], lk["phi"][:m]) - before
+            n, ex = self._exp.n, self._exp.cols
+            ex["x"][:n] += moved[:, 0]
+            ex["y"][:n] += moved[:, 1]
+            ex["th"][:n] += moved[:, 2]
+        window = self.config.reentry.innovation_window
+        self._innovations, self._gate_scale, self._gate_view = InnovationScale(window), InnovationScale(window), -2
+        return relay
+
+    def _creation_layout(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """Experience poses (n, 3) laid out from experience 0's along the transitions that created
+        them (each experience's first incoming transition), with bearings ``theta`` and heading
+        changes ``phi``."""
+        n, ex, lk = self._exp.n, self._exp.cols, self._link.cols
+        m = self._link.n
+        to = lk["to"][:m]
+        first = np.full(n, -1, dtype=np.int64)
+        targets, earliest = np.unique(to, return_index=True)
+        first[targets] = earliest
+        pose = np.zeros((n, 3))
+        pose[0] = ex["x"][0], ex["y"][0], ex["th"][0]
+        frm, d = lk["from"], lk["d"]
+        for j in range(1, n):  # an experience is created from an earlier one
+            k = first[j]
+            if k < 0:
+                pose[j] = ex["x"][j], ex["y"][j], ex["th"][j]
+                continue
+            x, y, th = pose[frm[k]]
+            a = th + theta[k]
+            pose[j] = x + d[k] * math.cos(a), y + d[k] * math.sin(a), th + phi[k]
+        return pose
+
     # ------------------------------------------------------------------ state i/o
     def get_state(self) -> dict:
         """Arrays that fully describe the map (for save/load)."""

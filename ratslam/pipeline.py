@@ -15,10 +15,27 @@ from .experience_map import ExperienceMap
 from .local_view import LocalView
 from .pose_cells import PoseCells
 from .snaps import is_snap
+from .yaw_bias import YawBiasSearch
 
 # format 2: the latest snap; 3: nested config; 4: path noise per experience; 5: loop-closure
-# candidate and the latest re-entry's fix
+# candidate and the latest re-entry's fix (a state without the yaw-bias search's arrays, saved
+# before it, loads with the search starting afresh)
 _FORMAT = "ratslam-state-5"
+
+
+def _bias_search(config: RatSLAMConfig) -> YawBiasSearch:
+    """The yaw-rate bias search of ``config.yaw_bias`` (degrees converted to radians)."""
+    yb = config.yaw_bias
+    return YawBiasSearch(
+        max_rad_s=math.radians(yb.search_max_deg_s),
+        step_rad_s=math.radians(yb.search_step_deg_s),
+        max_span_s=yb.search_max_span_s,
+        min_travel_m=yb.revisit_min_travel_m,
+        sigma_xy_m=yb.revisit_sigma_xy_m,
+        sigma_theta_rad=math.radians(yb.revisit_sigma_heading_deg),
+        kernel=yb.search_kernel,
+        min_gain=yb.search_min_gain,
+    )
 
 
 class RatSLAM:
@@ -31,7 +48,9 @@ class RatSLAM:
     (eqs 2-11) once the scene has been seen for ``experience_map.view_confirm_ticks`` consecutive
     ticks and the peak has not snapped for ``experience_map.snap_settle_ticks`` (a new loop closure
     waits for the next scene to agree: ``experience_map.loop_closure_sequence``), and runs its
-    correction (eqs 12-14).
+    correction (eqs 12-14). Beforehand, unless ``yaw_bias.search`` is off, the tick feeds the
+    yaw-rate bias search (:mod:`ratslam.yaw_bias`); once it adopts a bias the transitions are
+    corrected (:meth:`ExperienceMap.remove_yaw_bias`) and every consumer gets the corrected yaw rate.
 
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
     """
@@ -47,6 +66,9 @@ class RatSLAM:
         self._grid = np.array(self._config.shape, dtype=float)
         self._last_scene, self._scene_run = -1, 0  # consecutive ticks of the current scene
         self._last_snap = -(1 << 62)  # step index of the latest snap
+        self._bias_search = _bias_search(self._config) if self._config.yaw_bias.search else None
+        self._yaw_bias = 0.0  # rad/s, taken off every yaw rate
+        self._time = 0.0  # s since the first tick
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -54,6 +76,7 @@ class RatSLAM:
         (int, -1 = nothing recognisable)."""
         k = self._tick  # step index of this tick
         scene_id = int(scene_id)
+        v_rot = self._unbiased(dt, v_trans, v_rot, scene_id)
         pc = self.pose_cells
         old_peak = pc.peak
         self.local_view.inject(scene_id, k, pc)
@@ -77,6 +100,18 @@ class RatSLAM:
             em.correct()
         self._tick += 1
 
+    def _unbiased(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> float:
+        """The tick's yaw rate less the bias found so far; a newly adopted bias first corrects
+        the map's transitions."""
+        if self._bias_search is not None:
+            found = self._bias_search.add(dt, v_trans, v_rot, scene_id)
+            if found is not None:
+                relay = math.radians(self._config.yaw_bias.revisit_sigma_heading_deg)
+                self.experience_map.remove_yaw_bias(found - self._yaw_bias, self._time, relay)
+                self._yaw_bias = found
+        self._time += dt
+        return v_rot - self._yaw_bias
+
     # ------------------------------------------------------------------ read access
     @property
     def config(self) -> RatSLAMConfig:
@@ -93,6 +128,11 @@ class RatSLAM:
         """(x, y, θ) in the experience-map frame: the current experience's map pose composed
         with the odometry integrated since it was entered."""
         return self.experience_map.pose
+
+    @property
+    def yaw_bias(self) -> float:
+        """The yaw-rate bias (rad/s) taken off the odometry: 0 until the search adopts one."""
+        return self._yaw_bias
 
     @property
     def pose_cell_activity(self) -> np.ndarray:
@@ -182,6 +222,9 @@ class RatSLAM:
         arrays["rs_tick"] = np.array(
             [self._tick, int(self._snapped), self._last_scene, self._scene_run, self._last_snap], dtype=np.int64
         )
+        arrays["rs_yaw_bias_time"] = np.array([self._yaw_bias, self._time])
+        if self._bias_search is not None:
+            arrays.update(self._bias_search.get_state())
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
@@ -204,4 +247,8 @@ class RatSLAM:
         obj.experience_map.set_state(s)
         obj._tick, snapped, obj._last_scene, obj._scene_run, obj._last_snap = (int(v) for v in s["rs_tick"])
         obj._snapped = bool(snapped)
+        if "rs_yaw_bias_time" in s:
+            obj._yaw_bias, obj._time = (float(v) for v in s["rs_yaw_bias_time"])
+        if obj._bias_search is not None and "yb_scalars" in s:
+            obj._bias_search.set_state(s)
         return obj

@@ -180,6 +180,62 @@ class YawBiasSearch:
         dth = (dth + math.pi) % (2.0 * math.pi) - math.pi
         return (rel.real**2 + rel.imag**2) * self._inv_sxy2 + dth**2 * self._inv_sth2
 
+    # ---------------------------------------------------------------- state i/o
+    def get_state(self) -> dict[str, np.ndarray]:
+        """Arrays that fully describe the search (keys ``yb_*``), for a saved RatSLAM state."""
+        g = len(self.grid)
+        onsets = [o for q in self._onsets.values() for o in q]
+        pairs = list(self._pairs)
+        return {
+            "yb_scalars": np.array(
+                [
+                    self.revisits,
+                    self.bias,
+                    self._time,
+                    self._path,
+                    self._theta,
+                    self._prev_scene,
+                    self._chunk_start,
+                    self._row,
+                ],
+                dtype=float,
+            ),
+            "yb_cost": self.cost.copy(),
+            "yb_prefix": self._prefix.copy(),
+            "yb_chunk": np.array(self._chunk, dtype=float).reshape(3, -1),
+            "yb_rows_index": np.array([r[0] for r in self._rows], dtype=np.int64),
+            "yb_rows_prefix": np.array([r[1] for r in self._rows], dtype=complex).reshape(-1, g),
+            "yb_rows_theta_time": np.array([(r[2], r[3]) for r in self._rows], dtype=float).reshape(-1, 2),
+            "yb_onsets": np.array([(o.scene, o.time, o.path, o.row) for o in onsets], dtype=float).reshape(-1, 4),
+            "yb_pairs_span": np.array([(p[0], p[1]) for p in pairs], dtype=float).reshape(-1, 2),
+            "yb_pairs_r2": np.array([p[2] for p in pairs], dtype=float).reshape(-1, g),
+        }
+
+    def set_state(self, s: dict) -> None:
+        """Restore a state produced by :meth:`get_state` (same configuration)."""
+        sc = s["yb_scalars"]
+        self.revisits, self.bias, self._time, self._path, self._theta = int(sc[0]), *(float(v) for v in sc[1:5])
+        self._prev_scene, self._chunk_start, self._row = int(sc[5]), float(sc[6]), int(sc[7])
+        self.cost = np.array(s["yb_cost"], dtype=float)
+        self._prefix = np.array(s["yb_prefix"], dtype=complex)
+        chunk = s["yb_chunk"]
+        self._chunk = (chunk[0].tolist(), chunk[1].tolist(), chunk[2].tolist())
+        tt = s["yb_rows_theta_time"]
+        self._rows = deque(
+            (int(i), np.array(p, dtype=complex), float(th), float(t))
+            for i, p, (th, t) in zip(s["yb_rows_index"], s["yb_rows_prefix"], tt)
+        )
+        self._onsets = {}
+        for scene, t, path, row in s["yb_onsets"]:
+            self._onsets.setdefault(int(scene), deque()).append(_Onset(int(scene), float(t), float(path), int(row)))
+        self._pairs = deque(
+            (
+                (float(a), float(b), np.array(r2, dtype=float))
+                for (a, b), r2 in zip(s["yb_pairs_span"], s["yb_pairs_r2"])
+            ),
+            maxlen=MAX_PAIR_RECORDS,
+        )
+
     # ---------------------------------------------------------------- deciding
     def best(self) -> tuple[float, bool]:
         """The grid bias of least cost (ties to the smaller |b|), refined by a parabola, and
