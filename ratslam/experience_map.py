@@ -69,6 +69,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix, identity
+from scipy.sparse.linalg import factorized
 
 from . import map_kernels
 from .config import RatSLAMConfig
@@ -609,60 +611,53 @@ class ExperienceMap:
         )
 
     # ------------------------------------------------------------------ yaw-rate bias
-    def remove_yaw_bias(self, change: float, elapsed_s: float, relay_heading: float) -> bool:
+    def remove_yaw_bias(self, change: float) -> None:
         """The odometry's yaw rate was found to carry ``change`` rad/s more bias than assumed so
         far (:mod:`ratslam.yaw_bias`); the caller feeds the corrected rate from now on. Every
         transition loses the bias's turn over its elapsed time dt_ij: φ_ij by change·dt_ij, the
-        bearing θ_ij by half that (the path turned gradually).
-
-        Where the change turns the heading by more than ``relay_heading`` (rad) over the
-        ``elapsed_s`` the map spans, the map correction (eqs 12-14, a local relaxation) has not
-        absorbed it and would need thousands of passes to spread a turn that grows along the
-        whole map: each experience is then moved by what the corrected transitions do to the
-        chain by which it was created (laid out from its creating experience with the old and
-        with the new transitions, the difference added to its pose); the relaxation does the
-        rest. The re-entries' innovation statistics start afresh: they measured the biased
-        odometry. Returns whether the experiences were moved."""
+        bearing θ_ij by half that (the path turned gradually). The turn grows along the whole
+        map, a change the per-tick correction (eqs 12-14, a local relaxation) takes thousands of
+        passes to spread, so the correction is solved to its fixed point at once
+        (:meth:`settle`). The re-entries' innovation statistics start afresh: they measured the
+        biased odometry."""
         m = self._link.n
         lk = self._link.cols
         turn = change * lk["dt"][:m]
-        relay = self._exp.n > 1 and abs(change) * elapsed_s > relay_heading
-        if relay:
-            before = self._creation_layout(lk["theta"][:m], lk["phi"][:m])
         lk["phi"][:m] -= turn
         lk["theta"][:m] -= 0.5 * turn
-        if relay:
-            moved = self._creation_layout(lk["theta"][:m], lk["phi"][:m]) - before
-            n, ex = self._exp.n, self._exp.cols
-            ex["x"][:n] += moved[:, 0]
-            ex["y"][:n] += moved[:, 1]
-            ex["th"][:n] += moved[:, 2]
+        self.settle()
         window = self.config.reentry.innovation_window
         self._innovations, self._gate_scale, self._gate_view = InnovationScale(window), InnovationScale(window), -2
-        return relay
 
-    def _creation_layout(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        """Experience poses (n, 3) laid out from experience 0's along the transitions that created
-        them (each experience's first incoming transition), with bearings ``theta`` and heading
-        changes ``phi``."""
-        n, ex, lk = self._exp.n, self._exp.cols, self._link.cols
-        m = self._link.n
-        to = lk["to"][:m]
-        first = np.full(n, -1, dtype=np.int64)
-        targets, earliest = np.unique(to, return_index=True)
-        first[targets] = earliest
-        pose = np.zeros((n, 3))
-        pose[0] = ex["x"][0], ex["y"][0], ex["th"][0]
-        frm, d = lk["from"], lk["d"]
-        for j in range(1, n):  # an experience is created from an earlier one
-            k = first[j]
-            if k < 0:
-                pose[j] = ex["x"][j], ex["y"][j], ex["th"][j]
-                continue
-            x, y, th = pose[frm[k]]
-            a = th + theta[k]
-            pose[j] = x + d[k] * math.cos(a), y + d[k] * math.sin(a), th + phi[k]
-        return pose
+    def settle(self, heading_passes: int = 3) -> None:
+        """The map correction (eqs 12-14, ``correction="stable"``) run to its fixed point, solved
+        directly. At the fixed point every experience's link residuals sum to zero: the normal
+        equations of least squares over the links, first for the headings (eq 12 does not
+        involve the positions; residuals wrapped about the current headings, re-linearised
+        ``heading_passes`` times), then for the positions given the headings (eqs 13-14 are
+        linear in them). The current experience stays where it is (the residuals fix the map only
+        up to a rigid motion), so the robot's pose does not jump."""
+        n, m = self._exp.n, self._link.n
+        if n < 2 or m == 0:
+            return
+        ex, lk = self._exp.cols, self._link.cols
+        f, t = lk["from"][:m], lk["to"][:m]
+        rows = np.arange(m)
+        inc = coo_matrix((np.r_[np.ones(m), -np.ones(m)], (np.r_[rows, rows], np.r_[t, f])), shape=(m, n)).tocsr()
+        anchor = self.current if self.current >= 0 else 0
+        free = np.flatnonzero(np.arange(n) != anchor)
+        a = inc[:, free]
+        normal = (a.T @ a).tocsc() + 1e-12 * identity(len(free), format="csc")  # a map in pieces stays solvable
+        solve = factorized(normal)
+        th = ex["th"][:n]
+        for _ in range(heading_passes):
+            r = wrap_angle(th[t] - th[f] - lk["phi"][:m])
+            th[free] -= solve(a.T @ r)
+        ang = th[f] + lk["theta"][:m]
+        for col, step in (("x", lk["d"][:m] * np.cos(ang)), ("y", lk["d"][:m] * np.sin(ang))):
+            p = ex[col][:n]
+            r = p[t] - p[f] - step
+            p[free] -= solve(a.T @ r)
 
     # ------------------------------------------------------------------ state i/o
     def get_state(self) -> dict:
