@@ -212,7 +212,11 @@ class YawBiasConfig:
     revisit_sigma_xy_m: float = param(1.0 / math.sqrt(6.0), gt=0)
     """How well a scene places the robot (per axis; uniform over a 1 m scene cell)."""
     revisit_sigma_heading_deg: float = param(90.0 / math.sqrt(6.0), gt=0)
-    """How well a scene gives the heading (one 90 deg sector); also the re-lay threshold below."""
+    """How well a scene gives the heading (one 90 deg sector)."""
+    settle_turn_deg: float = param(0.0, ge=0, finite=False)
+    """An adopted bias change that turns the map by more than this over the time it spans has the
+    map correction solved to its fixed point at once (below it the per-tick correction carries
+    the corrected transitions; inf: never). See the docs section."""
 
 
 # The paper's re-entries: wherever the pose cells say (no fusion with the odometry, no bound on

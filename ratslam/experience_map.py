@@ -611,21 +611,22 @@ class ExperienceMap:
         )
 
     # ------------------------------------------------------------------ yaw-rate bias
-    def remove_yaw_bias(self, change: float) -> None:
+    def remove_yaw_bias(self, change: float, settle: bool = True) -> None:
         """The odometry's yaw rate was found to carry ``change`` rad/s more bias than assumed so
         far (:mod:`ratslam.yaw_bias`); the caller feeds the corrected rate from now on. Every
         transition loses the bias's turn over its elapsed time dt_ij: φ_ij by change·dt_ij, the
-        bearing θ_ij by half that (the path turned gradually). The turn grows along the whole
-        map, a change the per-tick correction (eqs 12-14, a local relaxation) takes thousands of
-        passes to spread, so the correction is solved to its fixed point at once
-        (:meth:`settle`). The re-entries' innovation statistics start afresh: they measured the
-        biased odometry."""
+        bearing θ_ij by half that (the path turned gradually). With ``settle`` (a change that
+        turns the map by a lot over its span: the turn grows along the whole map, which the
+        per-tick correction, eqs 12-14, a local relaxation, takes thousands of passes to spread)
+        the correction is solved to its fixed point at once (:meth:`settle`). The re-entries'
+        innovation statistics start afresh: they measured the biased odometry."""
         m = self._link.n
         lk = self._link.cols
         turn = change * lk["dt"][:m]
         lk["phi"][:m] -= turn
         lk["theta"][:m] -= 0.5 * turn
-        self.settle()
+        if settle:
+            self.settle()
         window = self.config.reentry.innovation_window
         self._innovations, self._gate_scale, self._gate_view = InnovationScale(window), InnovationScale(window), -2
 

@@ -68,6 +68,7 @@ class RatSLAM:
         self._last_snap = -(1 << 62)  # step index of the latest snap
         self._bias_search = _bias_search(self._config) if self._config.yaw_bias.search else None
         self._yaw_bias = 0.0  # rad/s, taken off every yaw rate
+        self._time = 0.0  # s since the first tick
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -105,8 +106,11 @@ class RatSLAM:
         if self._bias_search is not None:
             found = self._bias_search.add(dt, v_trans, v_rot, scene_id)
             if found is not None:
-                self.experience_map.remove_yaw_bias(found - self._yaw_bias)
+                change = found - self._yaw_bias
+                settle = abs(change) * self._time > math.radians(self._config.yaw_bias.settle_turn_deg)
+                self.experience_map.remove_yaw_bias(change, settle)
                 self._yaw_bias = found
+        self._time += dt
         return v_rot - self._yaw_bias
 
     # ------------------------------------------------------------------ read access
@@ -219,7 +223,7 @@ class RatSLAM:
         arrays["rs_tick"] = np.array(
             [self._tick, int(self._snapped), self._last_scene, self._scene_run, self._last_snap], dtype=np.int64
         )
-        arrays["rs_yaw_bias"] = np.array([self._yaw_bias])
+        arrays["rs_yaw_bias_time"] = np.array([self._yaw_bias, self._time])
         if self._bias_search is not None:
             arrays.update(self._bias_search.get_state())
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
@@ -244,8 +248,8 @@ class RatSLAM:
         obj.experience_map.set_state(s)
         obj._tick, snapped, obj._last_scene, obj._scene_run, obj._last_snap = (int(v) for v in s["rs_tick"])
         obj._snapped = bool(snapped)
-        if "rs_yaw_bias" in s:
-            obj._yaw_bias = float(s["rs_yaw_bias"][0])
+        if "rs_yaw_bias_time" in s:
+            obj._yaw_bias, obj._time = (float(v) for v in s["rs_yaw_bias_time"])
         if obj._bias_search is not None and "yb_scalars" in s:
             obj._bias_search.set_state(s)
         return obj
