@@ -9,7 +9,7 @@ import pytest
 
 from baselines import PoseGraphConfig
 from harness.scale import derive_configs, ladder, measure_log, revisit_noise, trans_gain
-from ratslam import RatSLAMConfig
+from ratslam import RatSLAMConfig, YawBiasConfig
 from worlds import ObservationLog, simulate
 
 
@@ -65,8 +65,11 @@ def test_a_faster_vehicle_gets_scaled_fields():
     assert pg.keyframes.distance_m == pytest.approx(1.0)
     assert pg.closures.sigma_xy_m == pytest.approx(2.0 / np.sqrt(6.0))
     assert pg.odometry.sigma_v_m_s == 0.01 and pg.odometry.sigma_w_rad_s == 0.01
+    # RatSLAM's bias search scores revisits as the pose graph's closures do
+    assert rs.yaw_bias.revisit_min_travel_m == pytest.approx(pg.closures.min_travel_m)
+    assert rs.yaw_bias.revisit_sigma_xy_m == pytest.approx(pg.closures.sigma_xy_m)
     # untouched fields keep their defaults
-    assert rs.replace(pose_cells={"trans_gain": 1.05}) == RatSLAMConfig()
+    assert rs.replace(pose_cells={"trans_gain": 1.05}, yaw_bias=YawBiasConfig()) == RatSLAMConfig()
 
 
 def test_packet_speed_is_capped_by_larger_cells():
