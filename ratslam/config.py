@@ -1,7 +1,8 @@
 """Configuration of the RatSLAM pipeline: small frozen sub-configs with documented defaults.
 
 ``RatSLAMConfig(pose_cells=PoseCellConfig(...), local_view=LocalViewConfig(...),
-experience_map=ExperienceMapConfig(...), reentry=ReentryFusionConfig(...))``; every field is
+experience_map=ExperienceMapConfig(...), reentry=ReentryFusionConfig(...),
+yaw_bias=YawBiasConfig(...))``; every field is
 checked by :func:`ratslam.config_fields.check_fields`. Units: pose-cell quantities are in cell
 units (x', y' cells of ``cell_size_m``, θ' cells of ``360 / n_theta`` degrees); map quantities
 are in metres and radians; rates per second. Why each default is what it is (the measured
