@@ -204,11 +204,10 @@ class ExperienceMap:
         # the dead reckoning (also what consecutive re-entries are compared by) and, when fusing,
         # the odometry's noise along the path
         self._noise = PathNoise(fusion.odom_speed_noise_m_s, fusion.odom_heading_noise_rad_s, fusion.enabled)
-        self._innovations = InnovationScale(fusion.innovation_window)
-        # the odometry gate's noise scale: fed by the re-entries taken and, once per scene, by
-        # those it refused (-2: no scene refused since the latest re-entry)
-        self._gate_scale = InnovationScale(fusion.innovation_window)
-        self._gate_view = -2
+        self._innovations: InnovationScale
+        self._gate_scale: InnovationScale
+        self._gate_view: int
+        self._restart_innovations()
         self._fix = np.zeros(0)  # the latest re-entry's pose covariance (PathNoise.fix); empty: none
         self._view_cov = np.diag(
             [fusion.position_sigma_m**2, fusion.position_sigma_m**2, math.radians(fusion.heading_sigma_deg) ** 2]
@@ -627,8 +626,16 @@ class ExperienceMap:
         lk["theta"][:m] -= 0.5 * turn
         if settle:
             self.settle()
+        self._restart_innovations()
+
+    def _restart_innovations(self) -> None:
+        """Re-entries' innovation statistics from scratch: the fusion's noise scale and the
+        odometry gate's, fed by the re-entries taken and, once per scene, by those the gate
+        refused (``_gate_view`` -2: no scene refused since the latest re-entry)."""
         window = self.config.reentry.innovation_window
-        self._innovations, self._gate_scale, self._gate_view = InnovationScale(window), InnovationScale(window), -2
+        self._innovations = InnovationScale(window)
+        self._gate_scale = InnovationScale(window)
+        self._gate_view = -2
 
     def settle(self, heading_passes: int = 3) -> None:
         """The map correction (eqs 12-14, ``correction="stable"``) run to its fixed point, solved

@@ -67,8 +67,6 @@ class RatSLAM:
         self._last_scene, self._scene_run = -1, 0  # consecutive ticks of the current scene
         self._last_snap = -(1 << 62)  # step index of the latest snap
         self._bias_search = _bias_search(self._config) if self._config.yaw_bias.search else None
-        self._yaw_bias = 0.0  # rad/s, taken off every yaw rate
-        self._time = 0.0  # s since the first tick
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -103,15 +101,16 @@ class RatSLAM:
     def _unbiased(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> float:
         """The tick's yaw rate less the bias found so far; a newly adopted bias first corrects
         the map's transitions."""
-        if self._bias_search is not None:
-            found = self._bias_search.add(dt, v_trans, v_rot, scene_id)
-            if found is not None:
-                change = found - self._yaw_bias
-                settle = abs(change) * self._time > math.radians(self._config.yaw_bias.settle_turn_deg)
-                self.experience_map.remove_yaw_bias(change, settle)
-                self._yaw_bias = found
-        self._time += dt
-        return v_rot - self._yaw_bias
+        search = self._bias_search
+        if search is None:
+            return v_rot
+        before = search.bias
+        if search.add(dt, v_trans, v_rot, scene_id) is not None:
+            change = search.bias - before
+            elapsed = search.time - dt  # the map's span before this tick
+            settle = abs(change) * elapsed > math.radians(self._config.yaw_bias.settle_turn_deg)
+            self.experience_map.remove_yaw_bias(change, settle)
+        return v_rot - search.bias
 
     # ------------------------------------------------------------------ read access
     @property
@@ -133,7 +132,7 @@ class RatSLAM:
     @property
     def yaw_bias(self) -> float:
         """The yaw-rate bias (rad/s) taken off the odometry: 0 until the search adopts one."""
-        return self._yaw_bias
+        return self._bias_search.bias if self._bias_search is not None else 0.0
 
     @property
     def pose_cell_activity(self) -> np.ndarray:
@@ -223,8 +222,7 @@ class RatSLAM:
         arrays["rs_tick"] = np.array(
             [self._tick, int(self._snapped), self._last_scene, self._scene_run, self._last_snap], dtype=np.int64
         )
-        arrays["rs_yaw_bias_time"] = np.array([self._yaw_bias, self._time])
-        if self._bias_search is not None:
+        if self._bias_search is not None:  # its adopted bias is in its state
             arrays.update(self._bias_search.get_state())
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
@@ -248,8 +246,6 @@ class RatSLAM:
         obj.experience_map.set_state(s)
         obj._tick, snapped, obj._last_scene, obj._scene_run, obj._last_snap = (int(v) for v in s["rs_tick"])
         obj._snapped = bool(snapped)
-        if "rs_yaw_bias_time" in s:
-            obj._yaw_bias, obj._time = (float(v) for v in s["rs_yaw_bias_time"])
         if obj._bias_search is not None and "yb_scalars" in s:
             obj._bias_search.set_state(s)
         return obj

@@ -120,6 +120,11 @@ class YawBiasSearch:
         self._onsets: dict[int, deque[_Onset]] = {}
         self._pairs: deque[tuple[float, float, np.ndarray]] = deque(maxlen=MAX_PAIR_RECORDS)
 
+    @property
+    def time(self) -> float:
+        """Seconds of odometry fed so far."""
+        return self._time
+
     # ---------------------------------------------------------------- feeding
     def add(self, dt: float, v: float, w: float, scene: int) -> float | None:
         """One tick (raw odometry, scene number after it); a newly adopted bias or None."""
