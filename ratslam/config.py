@@ -219,6 +219,9 @@ class YawBiasConfig:
     map correction solved to its fixed point at once (below it the per-tick correction carries
     the corrected transitions; inf: never). See the docs section."""
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 # The paper's re-entries: wherever the pose cells say (no fusion with the odometry, no bound on
 # how far a view may move the robot, one view enough to close a loop). ``RatSLAMConfig().replace(**PAPER_REENTRIES)``.

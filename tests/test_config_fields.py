@@ -8,8 +8,15 @@ import numpy as np
 import pytest
 
 from baselines import BackendConfig, KeyframeConfig, LoopClosureConfig, OptimisationConfig, PoseGraphConfig
-from ratslam import ExperienceMapConfig, LocalViewConfig, PoseCellConfig, RatSLAMConfig, ReentryFusionConfig
-from ratslam.config_fields import ConfigError, check_fields, from_dict, param, replace
+from ratslam import (
+    ExperienceMapConfig,
+    LocalViewConfig,
+    PoseCellConfig,
+    RatSLAMConfig,
+    ReentryFusionConfig,
+    YawBiasConfig,
+)
+from ratslam.config_fields import ConfigError, check_fields, from_dict, param, replace, subconfigs
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,10 +93,18 @@ def test_infinity_only_where_declared():
         (lambda: RatSLAMConfig(pose_cells=None), "pose_cells: must be a PoseCellConfig, got None"),
         (lambda: PoseCellConfig(nx=5, ny=5, n_theta=5), "pose_cells.excite_radius_cells/inhibit_radius_cells/"),
         (lambda: ReentryFusionConfig(position_sigma_m=0.0), "reentry.position_sigma_m/heading_sigma_deg: both 0"),
+        (lambda: YawBiasConfig(search_max_deg_s=-1.0), "yaw_bias.search_max_deg_s: must be a finite number > 0"),
     ],
 )
 def test_both_packages_apply_the_same_rules(make, message):
     assert _error(make).startswith(message)
+
+
+@pytest.mark.parametrize("top", [RatSLAMConfig, PoseGraphConfig])
+def test_every_sub_config_validates_its_fields(top):
+    """A sub-config that forgot to call check_fields would let a bad value through to the SLAM."""
+    for name, cls in subconfigs(top).items():
+        assert "__post_init__" in vars(cls), f"{top.__name__}.{name}: {cls.__name__} does not check its fields"
 
 
 def test_both_packages_accept_numpy_integers():
