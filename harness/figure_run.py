@@ -24,6 +24,7 @@ import numpy as np
 from baselines import PoseGraphConfig, YawBiasConfig
 from ratslam import PAPER_REENTRIES, PoseCellConfig, RatSLAMConfig
 from worlds import ObservationLog, World, load_world, simulate
+from worlds.errors import InputError
 from worlds.files import atomic_open, write_tum
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
@@ -34,7 +35,7 @@ from .progress import Progress
 from .report import write_report
 from .results import FigureInfo, RunResult, VariantConfig, VariantResult, WorldSource
 from .run_dir import provenance, staged_directory
-from .runner import StreamResult, dead_reckon, run_stream
+from .runner import StreamResult, TickError, dead_reckon, run_stream
 from .scale import derive_configs
 
 if TYPE_CHECKING:
@@ -299,7 +300,7 @@ def run_figure(
     duration = fig.duration if duration is None else float(duration)
     out = Path(out) if out else REPORTS_DIR / fig.name
     workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
-    with staged_directory(out) as stage:
+    with staged_directory(out, _inputs(config)) as stage:
         jobs = []
         for i, variant in enumerate(fig.variants):
             vdir = stage if i == 0 else stage / "variants" / variant.name
@@ -335,6 +336,20 @@ def run_figure(
     return out
 
 
+@contextlib.contextmanager
+def _named(log_path):
+    """A tick the systems refuse, reported with the log's file name and line."""
+    try:
+        yield
+    except TickError as e:
+        raise InputError(f"{log_path}: line {e.tick + 2}: {e.problem}") from None
+
+
+def _inputs(config: ConfigOverrides | None) -> tuple[Path, ...]:
+    """The configuration file a run reads, if any (its output must not replace it)."""
+    return (Path(config.source),) if config is not None and config.source else ()
+
+
 def replay(
     log_path,
     out,
@@ -359,7 +374,7 @@ def replay(
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     out = Path(out)
-    with staged_directory(out) as stage:
+    with staged_directory(out, (Path(log_path), *_inputs(config))) as stage, _named(log_path):
         result = run_single_stream(
             stage,
             log,

@@ -435,7 +435,8 @@ def run_nav_experiment(
     pg_config = PoseGraphConfig()
     rs_config = navigation_ratslam_config(pg_config)
     progress = _Progress(show_progress, w.dt)
-    with staged_directory(out) as stage:
+    world_file = (Path(world),) if Path(world).suffix == ".toml" else ()
+    with staged_directory(out, world_file) as stage:
         hooks = ExperimentHooks(stage, rs_config.shape, rs_config.pose_cells.snap_threshold_cells, recording)
         t0 = time.perf_counter()
         try:

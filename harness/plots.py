@@ -38,7 +38,8 @@ def _world_axes(world: World | None, title: str, frame_xy: np.ndarray):
         fig, ax = plt.subplots(figsize=(min(12.0, 2.0 + w * 0.3), min(8.0, 1.6 + h * 0.3)))
         draw_world(ax, world, route=False)
     else:
-        lo, hi = frame_xy.min(axis=0), frame_xy.max(axis=0)
+        frame_xy = frame_xy.reshape(-1, 2)
+        lo, hi = (frame_xy.min(axis=0), frame_xy.max(axis=0)) if len(frame_xy) else (np.zeros(2), np.zeros(2))
         pad = 0.05 * max(float(np.max(hi - lo)), 1.0)
         w, h = (hi - lo) + 2 * pad
         scale = 8.0 / max(w, h)

@@ -30,21 +30,29 @@ class OutputError(InputError):
     """The output location cannot be used (one line: path and problem)."""
 
 
+RUN_MARKER = "metrics.json"
+"""Every run directory (figure, replay, navigation) holds this file: an existing directory is
+replaced only if it is empty or holds it (an earlier run), never a folder of the user's."""
+
+
 @contextmanager
-def staged_directory(final: Path):
+def staged_directory(final: Path, inputs: tuple[Path, ...] = ()):
     """Yield a fresh staging directory; on success it replaces ``final`` atomically-ish.
 
-    On any exception (including Ctrl-C) the staging directory is removed and ``final`` is
-    left as it was.
+    An existing ``final`` must be empty or an earlier run directory (it holds
+    :data:`RUN_MARKER`), and must not contain any of ``inputs`` (the files the run reads):
+    otherwise nothing is written and :class:`OutputError` says why. On any exception (including
+    Ctrl-C) the staging directory is removed and ``final`` is left as it was.
     """
-    final = Path(final)
+    final = Path(os.path.abspath(final))  # "." or "dir/.." name the directory itself
     parent = final.parent
+    if final == parent:
+        raise OutputError(f"{final}: cannot write a run over the file system's root")
     try:
         parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise OutputError(f"{final}: cannot create the output's parent directory ({e.strerror})") from None
-    if final.exists() and not final.is_dir():
-        raise OutputError(f"{final}: exists and is not a directory")
+    _check_replaceable(final, inputs)
     if not os.access(parent, os.W_OK):
         raise OutputError(f"{final}: output location is not writable")
     stage = parent / f".{final.name}.partial-{os.getpid()}"
@@ -60,6 +68,22 @@ def staged_directory(final: Path):
         os.replace(final, old)
     os.replace(stage, final)
     shutil.rmtree(old, ignore_errors=True)
+
+
+def _check_replaceable(final: Path, inputs: tuple[Path, ...]) -> None:
+    """Refuse an output that would delete something the run did not write (module doc)."""
+    if not final.exists():
+        return
+    if not final.is_dir():
+        raise OutputError(f"{final}: exists and is not a directory")
+    for f in inputs:
+        if Path(os.path.realpath(f)).is_relative_to(os.path.realpath(final)):
+            raise OutputError(f"{final}: holds the input {f}; the run would replace it (choose another --out)")
+    if any(final.iterdir()) and not (final / RUN_MARKER).is_file():
+        raise OutputError(
+            f"{final}: exists, is not empty and is not an earlier run directory (no {RUN_MARKER}); "
+            "choose another --out or remove it"
+        )
 
 
 def git_commit() -> str:

@@ -14,6 +14,15 @@ import numpy as np
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from ratslam import RatSLAM, RatSLAMConfig
 from worlds import ObservationLog
+from worlds.errors import InputError
+
+
+class TickError(InputError):
+    """A tick of the log that a SLAM system refuses (one line: the tick and the problem)."""
+
+    def __init__(self, tick: int, problem: str):
+        super().__init__(f"tick {tick} (line {tick + 2} of the log): {problem}")
+        self.tick, self.problem = tick, problem
 
 
 def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -73,9 +82,12 @@ def run_stream(
     report_every = max(1, n // 200)
     for k, (dt, v, w, scene) in enumerate(rows):
         t0 = clock()
-        rs.step(dt, v, w, scene)
-        t1 = clock()
-        pg.step(dt, v, w, scene)
+        try:
+            rs.step(dt, v, w, scene)
+            t1 = clock()
+            pg.step(dt, v, w, scene)
+        except ValueError as e:
+            raise TickError(k, str(e)) from None
         t2 = clock()
         out["ratslam_pose"][k] = rs.pose
         out["peak_cells"][k] = rs.peak

@@ -12,7 +12,9 @@ Measured quantities (:func:`measure_log`):
     median ``dt``: metres per tick.
   label length: distance-weighted median of the distance driven while one scene number is
     reported on consecutive ticks (each run weighted by its length, so the short runs that
-    flicker at cell borders weigh little). Simulated 1 m scene cells: 0.85-0.91 m; the Plaza
+    flicker at cell borders weigh little; speeds above SPIKE_FACTOR x the 95th percentile count
+    as that bound, so one encoder spike cannot make a run of labels hundreds of metres long).
+    Simulated 1 m scene cells: 0.85-0.91 m; the Plaza
     logs' 2 m cells: 1.88-2.00 m.
   odometry noise: per-tick white noise on the speed and the yaw rate, 1.4826 MAD of the
     first differences / sqrt(2) (the simulator's 0.01 m/s and 0.01 rad/s read 0.011). This is
@@ -103,6 +105,9 @@ REFERENCE_LABEL_LENGTH_M = 0.9
 """Label length (see :func:`measure_log`) of the simulator's 1 m scene cells."""
 REFERENCE_NOISE = 0.01
 """Per-tick odometry noise of the simulator, m/s and rad/s."""
+SPIKE_FACTOR = 4.0
+"""Speeds above this multiple of a log's 95th-percentile speed are spikes, not driving
+(:func:`measure_log`'s label length)."""
 MAX_CELLS_PER_TICK = 0.75
 GAIN_SLOW, GAIN_FAST = (0.2, 1.05), (0.6, 1.0)  # (cells per tick, pose_cells.trans_gain)
 REENTRY_HEADING_SIGMA_CELLS = 1.0 / math.sqrt(12.0)
@@ -141,9 +146,16 @@ def measure_log(log) -> LogScale:
     dt_all = np.asarray(log.dt, float)
     v = np.abs(np.asarray(log.v_trans, float))
     dt = float(np.median(dt_all))
-    moving = v > 0.1 * np.percentile(v, 95) if v.size else np.zeros(0, bool)
+    # "lower": an observed speed, so one encoder spike (a tick at 1000 m/s) is not it even in a
+    # log of 20 ticks
+    fast = float(np.percentile(v, 95, method="lower")) if v.size else 0.0
+    moving = v > 0.1 * fast
     speed = float(np.median(v[moving])) if moving.any() else 0.0
-    dist = np.concatenate(([0.0], np.cumsum(v * dt_all)))
+    # ... nor does the spike make one run of labels hundreds of metres long and the
+    # distance-weighted median that run: faster than SPIKE_FACTOR x the 95th percentile counts
+    # as that
+    v_run = np.minimum(v, SPIKE_FACTOR * fast)
+    dist = np.concatenate(([0.0], np.cumsum(v_run * dt_all)))
     s = np.asarray(log.scene_id)
     label_length = float("nan")
     if s.size:

@@ -74,6 +74,7 @@ class RatSLAM:
         (int, -1 = nothing recognisable)."""
         k = self._tick  # step index of this tick
         scene_id = int(scene_id)
+        self._check_tick(dt, v_trans, v_rot, scene_id)
         v_rot = self._unbiased(dt, v_trans, v_rot, scene_id)
         pc = self.pose_cells
         old_peak = pc.peak
@@ -97,6 +98,20 @@ class RatSLAM:
         for _ in range(self._config.experience_map.correction_iterations):
             em.correct()
         self._tick += 1
+
+    def _check_tick(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
+        """A ValueError naming the problem for a tick the pipeline cannot take."""
+        if not (math.isfinite(dt) and math.isfinite(v_trans) and math.isfinite(v_rot)):
+            raise ValueError(f"step: non-finite input dt={dt}, v_trans={v_trans}, v_rot={v_rot}")
+        if dt < 0.0:
+            raise ValueError(f"step: dt must be non-negative, got {dt}")
+        pc = self._config.pose_cells
+        extent = min(pc.nx, pc.ny) * pc.cell_size_m
+        if abs(v_trans * dt) >= extent:  # the packet would wrap around the grid within the tick
+            raise ValueError(
+                f"step: v_trans * dt = {v_trans * dt:.6g} m in one tick, not less than the pose-cell grid's "
+                f"{extent:g} m (pose_cells.nx/ny x cell_size_m)"
+            )
 
     def _unbiased(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> float:
         """The tick's yaw rate less the bias found so far; a newly adopted bias first corrects

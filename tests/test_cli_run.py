@@ -45,6 +45,23 @@ def test_replay_a_log_then_rebuild_its_report(tmp_path):
     assert (out / "report.md").read_text().startswith("# replay")
 
 
+def test_replay_of_odometry_without_any_scene_writes_its_report(tmp_path):
+    """An odometry-only log with ground truth (every scene_id -1): no experiences, no keyframe
+    closures, and the report's map panels are drawn empty instead of failing."""
+    log = tmp_path / "log.csv"
+    assert cli("simulate", "small_loop", "--out", str(log), "--duration", "30", "--quiet").returncode == 0
+    lines = log.read_text().splitlines()
+    col = lines[0].split(",").index("scene_id")
+    blank = [lines[0]] + [",".join("-1" if i == col else c for i, c in enumerate(r.split(","))) for r in lines[1:]]
+    log.write_text("\n".join(blank) + "\n")
+    out = tmp_path / "replay"
+    r = cli("replay", str(log), "--out", str(out), "--quiet", "--no-recording")
+    assert r.returncode == 0, r.stderr
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["variants"]["replay"]["experiences"] == 0
+    assert (out / "report.md").is_file()
+
+
 @pytest.mark.parametrize(
     "args, expected",
     [

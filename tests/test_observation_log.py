@@ -42,6 +42,11 @@ def test_log_without_ground_truth(tmp_path):
         (f"{HEADER},speed\n0.1,0.1,0.3,0.0,1,2\n", "header: unknown column 'speed'"),
         (f"{HEADER},gt_x\n0.1,0.1,0.3,0.0,1,2\n", "ground-truth columns need all of"),
         (f"{HEADER}\n", "no observations"),
+        (f"{HEADER}\n0.1,0.1,0.3,0.0,18446744073709551616\n", "column scene_id: beyond a 64-bit integer"),
+        (f"{HEADER}\n0.1,0.1,0.3,0.0,1_0\n", "column scene_id: not an integer ('1_0')"),
+        (f"{HEADER}\n0.1,0.1,0.3,0.0,3.0\n", "column scene_id: not an integer ('3.0')"),
+        # dt in milliseconds: the odometry would be integrated 1000 times too far
+        (f"{HEADER}\n0.1,100,0.3,0.0,1\n0.2,100,0.3,0.0,1\n", "column dt: does not match the spacing of t"),
         ("", "empty file"),
     ],
 )
@@ -72,3 +77,19 @@ def test_write_is_atomic(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         log.write_csv(target)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_spreadsheet_byte_order_mark_and_the_largest_scene_numbers_are_read(tmp_path):
+    p = tmp_path / "excel.csv"
+    big = 2**63 - 1
+    p.write_text(f"\ufeff{HEADER}\n0.1,0.1,0.3,0.0,{big}\n0.2,0.1,0.3,0.0,{big - 1}\n", encoding="utf-8")
+    log = ObservationLog.read_csv(p)
+    assert log.scene_id.tolist() == [big, big - 1]  # int64 end to end: distinct ids stay distinct
+
+
+def test_isolated_gaps_in_time_are_allowed(tmp_path):
+    """A dropout (t jumps, dt is the tick's own duration) is real data, not a unit mistake."""
+    p = tmp_path / "gap.csv"
+    rows = [f"{0.1 * (k + 1) + (5.0 if k >= 5 else 0.0):.1f},0.1,0.3,0.0,1" for k in range(10)]
+    p.write_text(HEADER + "\n" + "\n".join(rows) + "\n")
+    assert len(ObservationLog.read_csv(p)) == 10

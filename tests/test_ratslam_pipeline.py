@@ -292,3 +292,24 @@ def test_bad_config_raises_one_line_value_error(field, value):
     with pytest.raises(ValueError) as err:
         CFG.replace(**{section: {name: value}})
     assert str(err.value).startswith(field + ": must be ") and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "tick, problem",
+    [
+        ((DT, math.nan, 0.0, 1), "non-finite input"),
+        ((-DT, 0.3, 0.0, 1), "dt must be non-negative"),
+        # 15 m in one tick: the packet would wrap around the 60 x 0.25 m grid (an encoder glitch)
+        ((0.1, 150.0, 0.0, 1), "not less than the pose-cell grid's 15 m"),
+    ],
+)
+def test_a_tick_the_pipeline_cannot_take_is_refused_before_it_changes_anything(tick, problem):
+    refused, clean = RatSLAM(CFG), RatSLAM(CFG)
+    for slam in (refused, clean):
+        slam.step(DT, 0.3, 0.05, 1)
+    with pytest.raises(ValueError, match=problem):
+        refused.step(*tick)
+    for slam in (refused, clean):
+        slam.step(DT, 0.3, 0.05, 2)
+    assert refused.pose == clean.pose
+    np.testing.assert_array_equal(refused.pose_cells.peak, clean.pose_cells.peak)

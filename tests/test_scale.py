@@ -161,3 +161,15 @@ def test_revisits_keep_a_roughness_reading_within_their_support():
     assert r.support_w[0] <= k_w <= r.support_w[1]
     _, pg, _ = derive_configs(log)
     assert pg.odometry.sigma_w_rad_s == pytest.approx(0.01 * k_w)
+
+
+@pytest.mark.parametrize("n, tolerance", [(6000, 0.05), (20, 0.5)])  # 20 ticks: about two runs of labels
+def test_one_encoder_spike_does_not_rescale_the_log(n, tolerance):
+    """One tick at 1000 m/s (an encoder glitch) used to make one run of labels ~100 m long, the
+    distance-weighted median label length that run, and the pose graph's keyframes 90 m apart."""
+    log = _drive(4 * 0.3 / 7, 7.0, 2.0, n=n)
+    clean = measure_log(log)
+    log.v_trans[n // 2] = 1000.0
+    spiked = measure_log(log)
+    assert spiked.step == pytest.approx(clean.step, rel=0.01)
+    assert spiked.label_length == pytest.approx(clean.label_length, rel=tolerance)

@@ -8,7 +8,7 @@ from harness.runner import dead_reckon
 from tests.helpers import cli
 from worlds import simulate
 from worlds.files import write_tum
-from worlds.trajectory_import import TrajectoryImportError, import_tum, labels_at
+from worlds.trajectory_import import PlaceLabels, TrajectoryImportError, import_tum, labels_at
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +39,7 @@ def test_tum_odometry_and_labels_round_trip(recorded):
 
 
 def test_labels_hold_for_their_age_only():
-    labels = np.array([[1.0, 7], [2.0, 8]])
+    labels = PlaceLabels(np.array([1.0, 2.0]), np.array([7, 8]))
     t = np.array([0.5, 1.0, 1.2, 1.9, 2.05, 3.5])
     assert labels_at(labels, t, max_age=0.5).tolist() == [-1, 7, 7, -1, 8, -1]
 
@@ -94,3 +94,21 @@ def test_imported_log_replays_end_to_end(recorded, tmp_path):
     r = cli("replay", str(out), "--out", str(tmp_path / "run"), "--quiet", "--no-recording")
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "run" / "metrics.json").is_file()
+
+
+def test_label_ids_beyond_float_precision_stay_distinct(recorded, tmp_path):
+    """Labels used to pass through a float64 array: ids 2**60 + k all became 2**60."""
+    d, log = recorded
+    ids = [2**60 + s if s >= 0 else -1 for s in log.scene_id.tolist()]
+    lines = ["t,scene_id"] + [f"{t!r},{s}" for t, s in zip(log.t.tolist(), ids)]
+    (tmp_path / "big.csv").write_text("\n".join(lines) + "\n")
+    got = import_tum(d / "odom.tum", labels=tmp_path / "big.csv")
+    want = np.where(log.scene_id >= 0, 2**60 + log.scene_id, -1)
+    np.testing.assert_array_equal(got.scene_id, want)
+
+
+def test_a_label_below_minus_one_is_refused_at_import(recorded, tmp_path):
+    d, _ = recorded
+    (tmp_path / "neg.csv").write_text("t,scene_id\n1.0,-5\n")
+    with pytest.raises(TrajectoryImportError, match="scene_id -5 at t=1.0: must be in -1.."):
+        import_tum(d / "odom.tum", labels=tmp_path / "neg.csv")

@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import InputError
 from .observation_log import ObservationLog
-from .trajectory_import import _interpolate_poses, assemble_log, odometry_from_tum
+from .trajectory_import import PlaceLabels, _interpolate_poses, assemble_log, odometry_from_tum, place_labels
 from .world import SceneSpec
 
 ODOMETRY = "nav_msgs/msg/Odometry"
@@ -78,7 +78,7 @@ def _poses(reader, bag, topic: str, types, role: str, twist: bool = False) -> np
     return table
 
 
-def _labels(reader, bag, topic: str) -> np.ndarray:
+def _labels(reader, bag, topic: str) -> PlaceLabels:
     rows: list[tuple[float, int]] = []
     for connection, timestamp, raw in reader.messages(
         connections=_connection(reader, bag, topic, INTEGERS, "place labels")
@@ -86,8 +86,7 @@ def _labels(reader, bag, topic: str) -> np.ndarray:
         rows.append((timestamp * 1e-9, int(reader.deserialize(raw, connection.msgtype).data)))
     if not rows:
         raise BagImportError(f"{bag}: topic {topic} (place labels): no messages")
-    table = np.array(rows)
-    return table[np.argsort(table[:, 0], kind="stable")]
+    return place_labels(rows, f"{bag}: topic {topic} (place labels)", BagImportError)
 
 
 def import_bag(

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +22,16 @@ from .files import atomic_write_text, read_text
 REQUIRED_COLUMNS = ("t", "dt", "v_trans", "v_rot", "scene_id")
 GROUND_TRUTH_COLUMNS = ("gt_x", "gt_y", "gt_theta", "false_positive")
 _INT_COLUMNS = {"scene_id", "false_positive"}
+SCENE_ID_MIN, SCENE_ID_MAX = -1, 2**63 - 1
+"""Scene numbers are int64: -1 (no scene) up to 2**63 - 1."""
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+DT_MISMATCH = 2.0
+"""``dt`` must agree with the spacing of ``t`` within this factor (median over the log)."""
+
+
+def parse_int(cell: str) -> int | None:
+    """A decimal integer (optional sign, digits only: not "3.0", "1_0" or "0x1f"), or None."""
+    return int(cell) if _INTEGER.fullmatch(cell) else None
 
 
 class ObservationLogError(InputError):
@@ -94,6 +105,7 @@ def _parse(path: Path, text: str) -> ObservationLog:
     if not rows:
         raise ObservationLogError(f"{path}: empty file (expected header {','.join(REQUIRED_COLUMNS)})")
     header = [h.strip() for h in rows[0]]
+    header[0] = header[0].lstrip("\ufeff")  # a byte-order mark (spreadsheets' "CSV UTF-8")
     known = set(REQUIRED_COLUMNS) | set(GROUND_TRUTH_COLUMNS)
     for h in header:
         if h not in known:
@@ -137,10 +149,12 @@ def _parse(path: Path, text: str) -> ObservationLog:
 
 def _parse_cell(path, line, column, cell):
     if column in _INT_COLUMNS:
-        try:
-            return int(cell)
-        except ValueError:
-            raise ObservationLogError(f"{path}: line {line}, column {column}: not an integer ({cell!r})") from None
+        n = parse_int(cell)
+        if n is None:
+            raise ObservationLogError(f"{path}: line {line}, column {column}: not an integer ({cell!r})")
+        if not -(2**63) <= n <= SCENE_ID_MAX:
+            raise ObservationLogError(f"{path}: line {line}, column {column}: beyond a 64-bit integer ({cell})")
+        return n  # the allowed values (scene_id >= -1, false_positive 0 or 1): _check_semantics
     try:
         v = float(cell)
     except ValueError:
@@ -156,10 +170,20 @@ def _check_semantics(path, v):
 
     bad = np.flatnonzero(v["dt"] <= 0)
     if len(bad):
-        fail(bad[0], "dt", f"must be positive, got {v['dt'][bad[0]]!r}")
+        fail(bad[0], "dt", f"must be positive, got {float(v['dt'][bad[0]])!r}")
     bad = np.flatnonzero(np.diff(v["t"]) <= 0)
     if len(bad):
-        fail(bad[0] + 1, "t", f"time must increase strictly ({v['t'][bad[0]]!r} then {v['t'][bad[0] + 1]!r})")
+        t0, t1 = float(v["t"][bad[0]]), float(v["t"][bad[0] + 1])
+        fail(bad[0] + 1, "t", f"time must increase strictly ({t0!r} then {t1!r})")
+    if len(v["t"]) > 1:
+        # dt is the tick's duration and t the time at its end: a dt in milliseconds, or t in
+        # other units than dt, integrates the odometry wrongly by that factor
+        ratio = float(np.median(v["dt"][1:] / np.diff(v["t"])))
+        if not 1.0 / DT_MISMATCH <= ratio <= DT_MISMATCH:
+            raise ObservationLogError(
+                f"{path}: column dt: does not match the spacing of t (median dt / t step = {ratio:.4g}); dt must be "
+                "each tick's duration in seconds and t the time at its end, in seconds"
+            )
     bad = np.flatnonzero(v["scene_id"] < -1)
     if len(bad):
         fail(bad[0], "scene_id", f"must be >= -1 (-1 = no scene), got {v['scene_id'][bad[0]]}")

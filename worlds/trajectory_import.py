@@ -19,6 +19,7 @@ Every problem is one line naming the file, the line and the problem
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +27,7 @@ import numpy as np
 from .errors import InputError
 from .files import read_text
 from .geometry import wrap_angle
-from .observation_log import ObservationLog
+from .observation_log import SCENE_ID_MAX, SCENE_ID_MIN, ObservationLog, parse_int
 from .real_data import labelled_log
 from .world import SceneSpec
 
@@ -76,11 +77,32 @@ def read_tum(path) -> np.ndarray:
     return np.column_stack([rows[:, 0], rows[:, 1], rows[:, 2], yaw])
 
 
-def read_labels(path) -> np.ndarray:
-    """Place labels (m, 2) ``t, scene_id`` from a CSV with header ``t,scene_id``."""
+@dataclass(frozen=True)
+class PlaceLabels:
+    """Place labels in time order: ``t`` (m,) seconds and ``scene_id`` (m,) integers (kept as
+    int64 end to end: ids up to 2**63 - 1 stay distinct)."""
+
+    t: np.ndarray
+    scene_id: np.ndarray
+
+
+def place_labels(rows: list[tuple[float, int]], where: str, error: type[Exception]) -> PlaceLabels:
+    """Labels from ``(t, scene_id)`` pairs (time order kept, stable), each id checked against the
+    observation log's range (-1 = no scene, up to 2**63 - 1); ``where`` names the source."""
+    for time, scene in rows:
+        if not SCENE_ID_MIN <= scene <= SCENE_ID_MAX:
+            raise error(f"{where}: scene_id {scene} at t={time!r}: must be in {SCENE_ID_MIN}..{SCENE_ID_MAX}")
+    times = np.array([r[0] for r in rows], dtype=float)
+    ids = np.array([r[1] for r in rows], dtype=np.int64)
+    order = np.argsort(times, kind="stable")
+    return PlaceLabels(times[order], ids[order])
+
+
+def read_labels(path) -> PlaceLabels:
+    """Place labels from a CSV with header ``t,scene_id``."""
     path = Path(path)
     lines = read_text(path, TrajectoryImportError).splitlines()
-    header = [h.strip() for h in lines[0].split(",")] if lines else []
+    header = [h.strip() for h in lines[0].lstrip("\ufeff").split(",")] if lines else []
     if header != ["t", "scene_id"]:
         raise TrajectoryImportError(f"{path}: line 1: expected the header 't,scene_id', got {','.join(header)!r}")
     rows: list[tuple[float, int]] = []
@@ -94,10 +116,9 @@ def read_labels(path) -> np.ndarray:
             t = float(fields[0])
         except ValueError:
             raise TrajectoryImportError(f"{path}: line {number}: t: not a number: {fields[0]!r}") from None
-        try:
-            scene = int(fields[1])
-        except ValueError:
-            raise TrajectoryImportError(f"{path}: line {number}: scene_id: not an integer: {fields[1]!r}") from None
+        scene = parse_int(fields[1])
+        if scene is None:
+            raise TrajectoryImportError(f"{path}: line {number}: scene_id: not an integer: {fields[1]!r}")
         if not math.isfinite(t):
             raise TrajectoryImportError(f"{path}: line {number}: t: not finite")
         if rows and t <= rows[-1][0]:
@@ -107,7 +128,7 @@ def read_labels(path) -> np.ndarray:
         rows.append((t, scene))
     if not rows:
         raise TrajectoryImportError(f"{path}: no labels")
-    return np.array(rows)
+    return place_labels(rows, str(path), TrajectoryImportError)
 
 
 def odometry_from_tum(poses: np.ndarray):
@@ -134,14 +155,14 @@ def _interpolate_poses(poses: np.ndarray, t: np.ndarray, path) -> np.ndarray:
     return np.column_stack([x, y, theta])
 
 
-def labels_at(labels: np.ndarray, t: np.ndarray, max_age: float, slack: float = 0.0) -> np.ndarray:
+def labels_at(labels: PlaceLabels, t: np.ndarray, max_age: float, slack: float = 0.0) -> np.ndarray:
     """Scene number per tick: the latest label at or before the tick's time plus ``slack``, if
     younger than ``max_age``."""
-    k = np.searchsorted(labels[:, 0], t + slack, side="right") - 1
+    k = np.searchsorted(labels.t, t + slack, side="right") - 1
     out = np.full(len(t), -1, dtype=np.int64)
     ok = k >= 0
-    ok[ok] = t[ok] - labels[k[ok], 0] < max_age
-    out[ok] = labels[k[ok], 1].astype(np.int64)
+    ok[ok] = t[ok] - labels.t[k[ok]] < max_age
+    out[ok] = labels.scene_id[k[ok]]
     return out
 
 
@@ -151,14 +172,14 @@ def assemble_log(
     v,
     w,
     gt: np.ndarray | None,
-    labels: np.ndarray | None,
+    labels: PlaceLabels | None,
     synthesise: SceneSpec | None,
     label_max_age: float | None,
     seed: int,
     gt_missing: str,
     error: type[Exception] = TrajectoryImportError,
 ) -> ObservationLog:
-    """The observation log of imported ticks: ``labels`` (m, 2) of ``t, scene_id`` held to the
+    """The observation log of imported ticks: ``labels`` held to the
     ticks, or scene numbers synthesised from the ground truth ``gt`` (n, 3) (``error(gt_missing)``
     is raised when it is absent)."""
     if synthesise is not None:
