@@ -44,6 +44,37 @@ def test_removing_the_bias_straightens_the_transitions_and_the_map():
     np.testing.assert_allclose(em.poses[:, 1:], 0.0, atol=1e-6)
 
 
+def test_a_bias_that_turned_the_map_past_half_a_turn_between_visits_is_removed():
+    """A square lap of 12 m sides driven in 120 s with a 2 deg/s gyro bias: the map turns by 240 deg
+    before the lap closes on its start. The loop closure's heading residual is then past half a
+    turn, and a settle wrapped about the biased headings closed it the wrong way round (the map
+    stayed bent); turned along the creating transitions first, the square comes back."""
+    bias, side, speed, step_s = math.radians(2.0), 12.0, 0.4, 2.5
+    em = ExperienceMap(RatSLAMConfig())
+    truth = [np.zeros(3)]
+    pose = np.zeros(3)
+    em.add_experience(pose, (0.0, 0.0, 0.0), 0, 0)
+    per_side = int(side / (speed * step_s))
+    for k in range(1, 4 * per_side + 1):
+        corner = k % per_side == 0  # the last corner turns back onto experience 0
+        true_turn = math.pi / 2 if corner else 0.0
+        d = speed * step_s
+        t = truth[-1]
+        truth.append(np.array([t[0] + d * math.cos(t[2]), t[1] + d * math.sin(t[2]), t[2] + true_turn]))
+        turn = true_turn + bias * step_s  # what the biased gyro measured
+        a = pose[2] + 0.5 * bias * step_s
+        pose = np.array([pose[0] + d * math.cos(a), pose[1] + d * math.sin(a), pose[2] + turn])
+        j = k if k < 4 * per_side else 0  # the last step closes the lap on experience 0
+        if j:
+            em.add_experience(pose, (0.0, 0.0, 0.0), j, j)
+        em.add_transition(k - 1, j, d * math.cos(0.5 * bias * step_s), d * math.sin(0.5 * bias * step_s), turn, step_s)
+    em.current = 4 * per_side - 1
+    assert math.degrees(bias * 4 * per_side * step_s) > 180.0
+    em.remove_yaw_bias(bias)
+    truth = np.array(truth[: 4 * per_side])
+    assert ate_rmse(em.poses, truth) < 0.05
+
+
 def test_settle_is_where_the_map_correction_converges():
     """settle() solves eqs 12-14 to their fixed point: on a loop whose transitions disagree it
     lands where many passes of the per-tick correction go, with the current experience kept."""
