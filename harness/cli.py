@@ -196,6 +196,7 @@ def _cmd_nav(args) -> None:
         recording=not args.no_recording,
         show_progress=not args.quiet,
         lookalikes=not args.no_lookalikes,
+        ratslam_localise=args.localise,
     )
     m = read_json(out / "metrics.json")
     for name, s in m["summary"].items():
@@ -394,6 +395,12 @@ def build_parser() -> argparse.ArgumentParser:
     nv.add_argument("--exploration", type=float, help="exploration, simulated seconds (default: the world's)")
     nv.add_argument("--out", help="run directory (default: reports/nav_WORLD)")
     nv.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    nv.add_argument(
+        "--localise",
+        action="store_true",
+        help="navigate RatSLAM's explored map by localising on it (a Kalman filter on the fixed map: odometry "
+        "and scene onsets) instead of stepping RatSLAM",
+    )
     nv.add_argument(
         "--no-lookalikes",
         action="store_true",

@@ -355,7 +355,13 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
         f"(goals reached only). Timeout: {m['settings']['timeout']}. RatSLAM runs with re-entry fusion "
         "weighted like the pose graph's closures and odometry, its fixes chained, its odometry trusted "
         "throughout and no loop-closure sequence (`navigation_ratslam_config`, whose module says why). "
-        "The world's "
+        + (
+            "Navigating, RatSLAM's explored map is fixed and the robot localised on it "
+            "(`--localise`, `ratslam.localisation`). "
+            if m["settings"].get("ratslam_navigation", "").startswith("localisation")
+            else ""
+        )
+        + "The world's "
         + (
             "look-alike regions show the same scenes (the world as shipped)."
             if m["settings"]["lookalikes"]
@@ -424,10 +430,13 @@ def run_nav_experiment(
     recording: bool = True,
     show_progress: bool = True,
     lookalikes: bool = True,
+    ratslam_localise: bool = False,
 ) -> Path:
     """Run the navigation experiment on ``world`` into ``out`` (default ``reports/nav_WORLD``);
     ``exploration_s`` None: the world's duration; ``lookalikes=False``: the world's look-alike
-    regions show their own scenes (as Fig 4's distinct_rooms variant). Returns the run directory."""
+    regions show their own scenes (as Fig 4's distinct_rooms variant); ``ratslam_localise``:
+    navigate RatSLAM's explored map by :mod:`ratslam.localisation` instead of stepping RatSLAM.
+    Returns the run directory."""
     _check(n_goals, exploration_s, seed)
     w = load_world(world)
     exploration = float(w.duration if exploration_s is None else exploration_s)
@@ -442,7 +451,7 @@ def run_nav_experiment(
         try:
             result = run_navigation(
                 w, exploration, n_goals, int(seed), ratslam_config=rs_config, gtsam_config=pg_config, trace=True,
-                lookalikes=lookalikes, progress=progress, hooks=hooks,
+                lookalikes=lookalikes, progress=progress, hooks=hooks, ratslam_localise=ratslam_localise,
             )  # fmt: skip
         except BaseException:
             hooks.abort()

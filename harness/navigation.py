@@ -67,7 +67,8 @@ import numpy as np
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from baselines.navigation import PoseGraphNavigator
 from ratslam import RatSLAM, RatSLAMConfig
-from ratslam.navigation import ExperienceMapNavigator
+from ratslam.localisation import LocaliserConfig
+from ratslam.navigation import ExperienceMapNavigator, LocalisingNavigator
 from worlds import ObservationLog, World, load_world, simulate
 from worlds.drive import Drive
 
@@ -248,6 +249,17 @@ def navigation_ratslam_config(pose_graph: PoseGraphConfig | None = None, **reent
     return RatSLAMConfig().replace(reentry=fields | reentry, experience_map={"loop_closure_sequence": False})
 
 
+def localiser_config(rs_config: RatSLAMConfig) -> LocaliserConfig:
+    """The map localiser weighted as RatSLAM's re-entry fusion is: a scene places the robot
+    within ``reentry.position_sigma_m``, the odometry's noise is the fusion's."""
+    r = rs_config.reentry
+    return LocaliserConfig(
+        position_sigma_m=r.position_sigma_m if r.enabled else LocaliserConfig().position_sigma_m,
+        odom_speed_noise_m_s=r.odom_speed_noise_m_s,
+        odom_heading_noise_rad_s=r.odom_heading_noise_rad_s,
+    )
+
+
 def _navigator(system: str, slam):
     return ExperienceMapNavigator(slam) if system == "ratslam" else PoseGraphNavigator(slam)
 
@@ -263,6 +275,7 @@ def run_navigation(
     goal_radius: float = 1.0,
     lookalikes: bool = True,
     ratslam_config: RatSLAMConfig | None = None,
+    ratslam_localise: bool = False,
     gtsam_config: PoseGraphConfig | None = None,
     controller: ControllerParams | None = None,
     timeout_factor: float = 3.0,
@@ -320,6 +333,8 @@ def run_navigation(
     results = {}
     for s in systems:
         navs[s].goal_radius = goal_radius
+        if s == "ratslam" and ratslam_localise:
+            navs[s] = LocalisingNavigator(navs[s].slam, localiser_config(rs_config), goal_radius)
         drive = Drive(world, gt[-1], seed=seed, seen_scenes=seen)
         results[s] = _navigate(
             s, navs[s], drive, world, gt, goal_ticks, anchors[s], params, success_radius,
@@ -338,6 +353,11 @@ def run_navigation(
             "timeout": f"{timeout_factor} x shortest route time + {timeout_extra_s} s",
             "controller": dataclasses.asdict(params),
             "ratslam_config": dataclasses.asdict(rs_config),
+            "ratslam_navigation": (
+                "localisation on the explored map (ratslam.localisation)"
+                if ratslam_localise
+                else "RatSLAM stepping (pose cells, view cells, experience map)"
+            ),
             "gtsam_config": dataclasses.asdict(pg_config),
         },
         systems=results,

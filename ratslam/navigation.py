@@ -21,6 +21,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from .localisation import LocaliserConfig, MapLocaliser
 from .pipeline import RatSLAM
 
 OK = "ok"
@@ -160,3 +161,46 @@ class ExperienceMapNavigator:
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
         """Advance the SLAM one tick on an observation."""
         self.slam.step(dt, v_trans, v_rot, scene_id)
+
+
+class LocalisingNavigator:
+    """What a controller sees of a fixed RatSLAM map localised on by :class:`MapLocaliser`: the
+    localiser's pose, routes over the map's transitions from the experience nearest the pose, the
+    experiences' (fixed) map positions. Stepping it steps the localiser only."""
+
+    name = "ratslam"
+
+    def __init__(self, slam: RatSLAM, config: LocaliserConfig | None = None, goal_radius: float = 1.0):
+        self.slam = slam  # whose map is navigated: never stepped here (its cells are displayed)
+        self.localiser = MapLocaliser(slam, config)
+        self.goal_radius = goal_radius
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """Current (x, y, θ) in the map's frame."""
+        return self.localiser.pose
+
+    @property
+    def current_node(self) -> int:
+        """The experience nearest the pose."""
+        return self.localiser.nearest_experience
+
+    def plan(self, goal_xy) -> Route:
+        """Quickest route to ``goal_xy`` (map frame) from the experience nearest the pose."""
+        loc = self.localiser
+        return quickest_route(
+            loc.experience_poses[:, :2], loc.links, loc.link_dt, self.current_node, goal_xy, self.goal_radius
+        )
+
+    def node_xy(self, nodes: np.ndarray) -> np.ndarray:
+        """Map positions (K, 2) of experiences ``nodes``."""
+        return self.localiser.experience_poses[np.asarray(nodes, dtype=np.int64), :2]
+
+    def node_pose(self, node: int) -> tuple[float, float, float]:
+        """Map pose (x, y, θ) of experience ``node``."""
+        x, y, th = self.localiser.experience_poses[int(node)]
+        return float(x), float(y), float(th)
+
+    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
+        """Advance the localiser one tick on an observation."""
+        self.localiser.step(dt, v_trans, v_rot, scene_id)

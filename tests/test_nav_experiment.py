@@ -134,3 +134,18 @@ def test_cli_nav_options():
     args = build_parser().parse_args(["nav", "office_floor", "--no-lookalikes", "--goals", "5", "--exploration", "60"])
     assert (args.no_lookalikes, args.goals, args.exploration, args.seed) == (True, 5, 60.0, 0)
     assert build_parser().parse_args(["nav", "office_floor"]).no_lookalikes is False
+
+
+def test_navigating_the_saved_map_in_localisation_mode(tmp_path):
+    """``--localise``: the explored map, saved, is the one navigated (a copy, never stepped), and
+    the run says so; the same exploration and goals as without it."""
+    from harness.navigation import run_navigation
+
+    loc = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",), ratslam_localise=True, trace=True)
+    slam = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",))
+    assert loc.settings["ratslam_navigation"].startswith("localisation")
+    assert slam.settings["ratslam_navigation"].startswith("RatSLAM stepping")
+    a, b = loc.systems["ratslam"].outcomes, slam.systems["ratslam"].outcomes
+    assert [o.true_goal for o in a] == [o.true_goal for o in b]
+    assert [o.map_goal for o in a] == [o.map_goal for o in b]  # the same map, the same clicks
+    assert len(loc.systems["ratslam"].trace["estimate"]) > 0
