@@ -147,5 +147,6 @@ def test_navigating_the_saved_map_in_localisation_mode(tmp_path):
     assert slam.settings["ratslam_navigation"].startswith("RatSLAM stepping")
     a, b = loc.systems["ratslam"].outcomes, slam.systems["ratslam"].outcomes
     assert [o.true_goal for o in a] == [o.true_goal for o in b]
-    assert [o.map_goal for o in a] == [o.map_goal for o in b]  # the same map, the same clicks
+    # the same map and the same first click (later ones differ: stepping, RatSLAM's map moves)
+    assert a[0].map_goal == b[0].map_goal
     assert len(loc.systems["ratslam"].trace["estimate"]) > 0
