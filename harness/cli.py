@@ -154,9 +154,10 @@ def _cmd_report(args) -> None:
 
         print(f"wrote {rebuild_sweep_report(args.dir)}")
         return
+    from .nav_experiment import is_nav_run, rebuild_nav_report
     from .report import write_report
 
-    print(f"wrote {write_report(args.dir)}")
+    print(f"wrote {rebuild_nav_report(args.dir) if is_nav_run(args.dir) else write_report(args.dir)}")
 
 
 def _cmd_sweep(args) -> None:
@@ -235,6 +236,16 @@ def _workers(text: str) -> int:
     return v
 
 
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 0 <= v < 2**63:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer below 2**63, got {text!r}")
+    return v
+
+
 def _positive(text: str) -> float:
     try:
         v = float(text)
@@ -281,7 +292,7 @@ def _label_options(parser, labels_help: str) -> None:
     parser.add_argument(
         "--label-max-age", type=_positive, help="a label holds for this long, s (default: two median tick lengths)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of synthesised flicker and false positives")
+    parser.add_argument("--seed", type=_seed, default=0, help="seed of synthesised flicker and false positives")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -297,7 +308,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True, help="observation log to write (CSV)")
     s.add_argument("--png", help="PNG of the run (default: next to the log)")
     s.add_argument("--duration", type=_positive, help="simulated seconds (default: the world's)")
-    s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    s.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     s.add_argument("--bias", type=_finite, help="odometric yaw bias, deg/s (default: the world's)")
     s.add_argument("--fp", type=_rate, help="false-positive scene rate per tick (default: the world's)")
     s.add_argument("--quiet", action="store_true", help="no progress output")
@@ -306,7 +317,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a paper figure end to end (simulate, both systems, report)")
     r.add_argument("figure", help="figure name (see `list`)")
     r.add_argument("--out", help="run directory (default: reports/FIGURE)")
-    r.add_argument("--seed", type=int, help="random seed (default: the figure's)")
+    r.add_argument("--seed", type=_seed, help="random seed (default: the figure's)")
     r.add_argument("--duration", type=_positive, help="simulated seconds (default: the figure's)")
     r.add_argument(
         "--config",
@@ -343,7 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     pz.add_argument("name", choices=("plaza1", "plaza2"), help="data set")
     pz.add_argument("--out", required=True, help="observation log to write (CSV)")
-    pz.add_argument("--seed", type=int, default=0, help="seed of flicker and false positives (default 0)")
+    pz.add_argument("--seed", type=_seed, default=0, help="seed of flicker and false positives (default 0)")
     pz.add_argument("--fp", type=_rate, help="false-positive scene rate per tick (default 0.002)")
     pz.add_argument("--duration", type=_positive, help="keep only the first S seconds")
     pz.set_defaults(func=_cmd_import_plaza)
@@ -390,7 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
         "and on GTSAM's pose graph (success rate, time ratio)",
     )
     nv.add_argument("world", help="a shipped world's name or a world .toml file")
-    nv.add_argument("--seed", type=int, default=0, help="seed of the exploration and the goals (default 0)")
+    nv.add_argument("--seed", type=_seed, default=0, help="seed of the exploration and the goals (default 0)")
     nv.add_argument("--goals", type=int, default=50, help="goals driven to on each map (default 50)")
     nv.add_argument("--exploration", type=float, help="exploration, simulated seconds (default: the world's)")
     nv.add_argument("--out", help="run directory (default: reports/nav_WORLD)")

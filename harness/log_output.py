@@ -56,7 +56,7 @@ def simulate_to_files(
     next to the log). ``None`` arguments take the world's defaults."""
     world = load_world(world)
     out = check_writable(out)
-    png = Path(png) if png else out.with_suffix(".png")
+    png = check_writable(png) if png else out.with_suffix(".png")  # both checked before either is written
     duration = world.duration if duration is None else duration
     progress = Progress(
         int(round(duration * world.tick_rate)), f"simulate {world.name}", world.dt, enabled=show_progress

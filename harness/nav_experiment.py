@@ -32,6 +32,7 @@ The run directory (staged: it appears only when complete, see :mod:`harness.run_
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
@@ -42,7 +43,7 @@ import rerun as rr
 
 from baselines import PoseGraphConfig
 from worlds import InputError, ObservationLog, World, load_world
-from worlds.files import atomic_write_text, write_json
+from worlds.files import atomic_write_text, read_json, write_json
 
 from . import metrics as hm
 from .navigation import (
@@ -334,6 +335,24 @@ def _fmt(v, spec: str = ".2f") -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "n/a"
     return format(v, spec)
+
+
+def is_nav_run(run_dir) -> bool:
+    """Whether ``run_dir`` holds a navigation experiment's metrics (``"experiment": "nav"``)."""
+    try:
+        m = json.loads((Path(run_dir) / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return False  # not readable: the run directory's own report says why
+    return isinstance(m, dict) and m.get("experiment") == "nav"
+
+
+def rebuild_nav_report(run_dir) -> Path:
+    """``report.md`` of a navigation run directory rebuilt from its ``metrics.json``."""
+    run_dir = Path(run_dir)
+    try:
+        return write_report(run_dir, read_json(run_dir / "metrics.json"), (run_dir / "recording.rrd").is_file())
+    except (KeyError, TypeError) as e:
+        raise NavigationInputError(f"{run_dir / 'metrics.json'}: not a complete navigation run ({e!r})") from None
 
 
 def write_report(run_dir: Path, m: dict, recording: bool) -> Path:

@@ -125,6 +125,8 @@ def read_runs_csv(path) -> list[dict]:
             raise SweepReportError(f"{path}: missing column(s) {', '.join(sorted(missing))}")
         rows = []
         for line, raw in enumerate(reader, start=2):
+            if None in raw or None in raw.values():  # a row cut short or run on (a truncated file)
+                raise SweepReportError(f"{path}: line {line}: expected {len(reader.fieldnames or ())} fields")
             row = {}
             for k, v in raw.items():
                 if k in ("run_id", "world", "varied", "system", "kind", "error"):

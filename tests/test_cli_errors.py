@@ -78,8 +78,11 @@ def test_other_exceptions_are_bugs_and_raise(error, monkeypatch):
         (("replay", "{bad_log}", "--out", "{out}"), "bad.csv"),
         (("report", "{bad_run}"), "metrics.json: cannot be read as JSON"),
         (("import", "tum", "{bad_log}", "--synthesise", "--out", "{out}/log.csv"), "bad.csv"),
+        (("simulate", "small_loop", "--seed", "-5", "--out", "{out}/log.csv"), "--seed: must be a non-negative"),
+        (("simulate", "small_loop", "--duration", "1e12", "--out", "{out}/log.csv"), "more than 1e+08 ticks"),
+        (("report", "{sweep}"), "runs.csv: line 2: expected"),
     ],
-    ids=["config_file", "observation_log", "metrics_json", "tum_import"],
+    ids=["config_file", "observation_log", "metrics_json", "tum_import", "seed", "duration", "truncated_runs_csv"],
 )
 def test_bad_inputs_are_one_line(tmp_path, args, expected):
     (tmp_path / "bad.toml").write_text('[ratslam.pose_cells]\nnx = "sixty"\n')
@@ -87,7 +90,16 @@ def test_bad_inputs_are_one_line(tmp_path, args, expected):
     (tmp_path / "run").mkdir()
     (tmp_path / "run" / "metrics.json").write_text("{")
     (tmp_path / "run" / "maps.npz").write_bytes(b"")
-    paths = {"bad_config": tmp_path / "bad.toml", "bad_log": tmp_path / "bad.csv", "bad_run": tmp_path / "run"}
+    (tmp_path / "sweep").mkdir()
+    from harness.sweep_report import COLUMNS
+
+    (tmp_path / "sweep" / "runs.csv").write_text(",".join(COLUMNS) + "\nrun-1,small_loop\n")  # cut short
+    paths = {
+        "bad_config": tmp_path / "bad.toml",
+        "bad_log": tmp_path / "bad.csv",
+        "bad_run": tmp_path / "run",
+        "sweep": tmp_path / "sweep",
+    }
     r = run_cli(*(a.format(out=tmp_path / "out", **paths) for a in args), cwd=tmp_path)
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()

@@ -47,6 +47,10 @@ def test_cli_nav_writes_every_file(tmp_path):
     assert m["settings"]["ratslam_config"]["reentry"] and m["settings"]["gtsam_config"]
     report = (out / "report.md").read_text()
     assert "## Claims" in report and "routes.png" in report
+    (out / "report.md").unlink()  # `report DIR` rebuilds it from metrics.json, byte for byte
+    r = run_cli("report", str(out))
+    assert r.returncode == 0, r.stderr
+    assert (out / "report.md").read_text() == report
     loaded = RatSLAM.load(out / "ratslam_map.npz")
     goal = m["goals"]["ratslam"][0]["map_goal"]
     assert rnav.plan_route(loaded, goal).found

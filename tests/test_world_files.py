@@ -72,6 +72,44 @@ def test_user_world_file_loads(tmp_path):
         (("bias_deg_s = 1.5", "bias_deg_s = 1.5\nslip_duration = 0"), "odometry.slip_duration", "must be positive"),
         (('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "Z"]]'), "route.edges[0]", "unknown node"),
         (('name = "tiny"', 'name = "tiny"\n[[oops'), "toml", "not valid TOML"),
+        # sizes that used to exhaust memory, tunnel through walls or place things off the world
+        (("bias_deg_s = 1.5", "bias_deg_s = 1.5\n[scenes]\ncell_size = 1e-6"), "scenes.cell_size", "cells of 1e-06 m"),
+        (("speed = 0.3", "speed = 100.0"), "robot.speed", "it would pass through walls"),
+        (
+            ("rectangles = [[0.0, 0.0, 6.0, 4.0]]", "rectangles = [[0.0, 0.0, 6.0, 4.0], [7.0, 1.0, 8.0, 2.0]]"),
+            "walls",
+            "outside the world's size",
+        ),
+        (
+            ("rectangles = [[4.0, 0.5, 4.5, 1.0]]", "rectangles = [[4.0, 0.5, 4.5, 1.0], [9.0, 0.5, 9.5, 1.0]]"),
+            "obstacles.rectangles[1]",
+            "outside the world's size",
+        ),
+        (
+            (
+                "nodes = { A = [1.0, 1.0], B = [5.0, 2.0], C = [1.0, 3.0] }",
+                "nodes = { A = [1.0, 1.0], B = [5.0, 2.0], C = [1.0, 3.0], D = [9.0, 9.0] }",
+            ),
+            "route.nodes.D",
+            "outside the world's size",
+        ),
+        (
+            (
+                "bias_deg_s = 1.5",
+                "bias_deg_s = 1.5\n[scenes]\nlookalikes = [[[1.0, 1.0, 2.0, 2.0], [-2.0, 1.0, -1.0, 2.0]]]",
+            ),
+            "scenes.lookalikes[0][1]",
+            "outside the world's size",
+        ),
+        (
+            (
+                "bias_deg_s = 1.5",
+                "bias_deg_s = 1.5\n[scenes]\nlookalikes = [[[1.0, 1.0, 2.0, 2.0], [3.0, 1.0, 5.0, 3.0]]]",
+            ),
+            "scenes.lookalikes[0]",
+            "the same size",
+        ),
+        (("speed = 0.3", "speed = 0.3\n[sim]\ntick_rate = 1e6"), "sim.duration", "ticks"),
     ],
 )
 def test_malformed_world_fails_with_one_line(tmp_path, edit, field, problem):

@@ -15,12 +15,13 @@ from collections.abc import Callable
 import numpy as np
 import pymunk
 
+from .errors import InputError
 from .geometry import wrap_angle
 from .observation_log import ObservationLog
 from .odometry_model import measured_odometry
 from .route import RouteFollower
 from .scenes import SceneLayout, observe_scenes
-from .world import World, load_world
+from .world import MAX_TICKS, World, load_world
 
 WALL_THICKNESS = 0.02  # m (pymunk segment radius)
 
@@ -114,6 +115,8 @@ def simulate(
     fp = world.scenes.false_positive_rate if fp_rate is None else float(fp_rate)
     if not (math.isfinite(duration) and duration > 0):
         raise ValueError(f"duration: must be a positive number of seconds, got {duration!r}")
+    if duration * world.tick_rate > MAX_TICKS:
+        raise InputError(f"duration: {duration:g} s at {world.tick_rate:g} Hz is more than {MAX_TICKS:.0e} ticks")
     if not math.isfinite(bias):
         raise ValueError(f"bias: must be a finite number of deg/s, got {bias!r}")
     if not (0.0 <= fp <= 1.0):

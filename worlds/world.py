@@ -295,7 +295,7 @@ def _parse(path, raw: dict) -> World:
         size=(size[0], size[1]),
         walls=walls,
         obstacles=obstacles,
-        start=(sx, sy, math.radians(sth)),
+        start=(sx, sy, math.remainder(math.radians(sth), 2.0 * math.pi)),
         nodes=nodes,
         edges=edges,
         route_mode=mode,
@@ -407,8 +407,70 @@ def _parse_scenes(top: _Reader) -> SceneSpec:
     )
 
 
+MAX_SCENE_CELLS = 10_000_000
+"""More scene cells than this (size / cell_size squared) is a unit mistake, not a world."""
+MAX_TICKS = 100_000_000
+"""More ticks than this (duration x tick_rate) would not fit in memory."""
+
+
+def _check_scale(path, w: World):
+    """Sizes that would exhaust memory or make the robot pass through walls."""
+    cells = math.ceil(w.size[0] / w.scenes.cell_size) * math.ceil(w.size[1] / w.scenes.cell_size)
+    if cells * w.scenes.heading_sectors > MAX_SCENE_CELLS:
+        raise WorldFileError(
+            path,
+            "scenes.cell_size",
+            f"{cells:.3g} cells of {w.scenes.cell_size:g} m in a {w.size} m world (at most {MAX_SCENE_CELLS:.0e})",
+        )
+    if w.duration * w.tick_rate > MAX_TICKS:
+        raise WorldFileError(
+            path, "sim.duration", f"{w.duration:g} s at {w.tick_rate:g} Hz is more than {MAX_TICKS:.0e} ticks"
+        )
+    step = w.robot.speed / w.tick_rate
+    if step >= w.robot.radius:  # the physics would let the robot tunnel through a thin wall
+        raise WorldFileError(
+            path,
+            "robot.speed",
+            f"{w.robot.speed:g} m/s at {w.tick_rate:g} Hz moves {step:.3g} m per tick, not less than the robot's "
+            f"radius {w.robot.radius:g} m (it would pass through walls)",
+        )
+
+
+def _inside(xy, size, margin: float = 1e-9) -> bool:
+    return -margin <= xy[0] <= size[0] + margin and -margin <= xy[1] <= size[1] + margin
+
+
+def _check_bounds(path, w: World):
+    """Everything placed inside the world's size: walls, obstacles, route nodes, look-alike regions."""
+    for i, o in enumerate(w.obstacles):
+        if not (_inside(o[:2], w.size) and _inside(o[2:], w.size)):
+            raise WorldFileError(
+                path, f"obstacles.rectangles[{i}]", f"{o.tolist()} is outside the world's size {list(w.size)}"
+            )
+    for seg in w.walls:
+        for xy in seg:
+            if not _inside(xy, w.size):
+                raise WorldFileError(
+                    path, "walls", f"a wall reaches {xy.round(3).tolist()}, outside the world's size {list(w.size)}"
+                )
+    for name, xy in w.nodes.items():
+        if not _inside(xy, w.size):
+            raise WorldFileError(path, f"route.nodes.{name}", f"{list(xy)} is outside the world's size {list(w.size)}")
+    for i, (src, dst) in enumerate(w.scenes.lookalikes):
+        for k, r in enumerate((src, dst)):
+            if not (_inside(r[:2], w.size) and _inside(r[2:], w.size)):
+                raise WorldFileError(
+                    path, f"scenes.lookalikes[{i}][{k}]", f"{list(r)} is outside the world's size {list(w.size)}"
+                )
+        if not (math.isclose(src[2] - src[0], dst[2] - dst[0]) and math.isclose(src[3] - src[1], dst[3] - dst[1])):
+            raise WorldFileError(path, f"scenes.lookalikes[{i}]", "the two regions must have the same size")
+
+
 def _check_consistency(path, w: World):
-    """Geometry checks: start pose clear of walls, route edges do not cross walls."""
+    """Geometry checks: sizes, everything inside the world, start pose clear of walls, route
+    edges do not cross walls."""
+    _check_scale(path, w)
+    _check_bounds(path, w)
     start = np.array([w.start[:2]])
     clearance = point_segment_distance(start, w.walls).min()
     if clearance < w.robot.radius:
