@@ -233,6 +233,8 @@ def run_sweep(
     runs_dir.mkdir(parents=True, exist_ok=True)
     for stale in runs_dir.glob(".*.partial-*"):  # left by a killed sweep
         shutil.rmtree(stale, ignore_errors=True)
+    for stale in out.glob(".*.tmp*"):  # a report file a killed sweep was writing (worlds.files)
+        stale.unlink(missing_ok=True)
     atomic_write_text(out / "sweep.toml", read_text(spec.path))  # what the runs were made from
     log(
         f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "

@@ -196,12 +196,13 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path):
     proc.wait()
     before = results_in_place()
     assert 2 <= len(before) < 6, "the sweep should have been killed mid-way"
+    (out / ".curve_fp_rate.png.x1y2z3.tmp.png").write_bytes(b"half")  # a report file being written at the kill
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert f"({len(before)} already done, {6 - len(before)} to run)" in r.stderr
     after = results_in_place()
     assert len(after) == 6 and all(after[k] == v for k, v in before.items())
-    assert not list(runs.glob(".*partial*"))
+    assert not list(runs.glob(".*partial*")) and not list(out.glob(".*.tmp*"))
     rows = read_runs_csv(out / "runs.csv")
     assert len({r["run_id"] for r in rows}) == 6 and not any(r["error"] for r in rows)
 
