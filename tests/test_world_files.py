@@ -110,6 +110,15 @@ def test_user_world_file_loads(tmp_path):
             "the same size",
         ),
         (("speed = 0.3", "speed = 0.3\n[sim]\ntick_rate = 1e6"), "sim.duration", "ticks"),
+        # a start shut in a box of walls: the robot never reaches its route
+        (
+            (
+                "pose = [1.0, 1.0, 0.0]\n[walls]\nrectangles = [[0.0, 0.0, 6.0, 4.0]]",
+                "pose = [2.0, 1.0, 0.0]\n[walls]\nrectangles = [[0.0, 0.0, 6.0, 4.0], [1.6, 0.6, 2.4, 1.4]]",
+            ),
+            "start.pose",
+            "a wall stands between the start and the route",
+        ),
     ],
 )
 def test_malformed_world_fails_with_one_line(tmp_path, edit, field, problem):

@@ -485,6 +485,14 @@ def _check_consistency(path, w: World):
             raise WorldFileError(path, "start.pose", f"inside obstacle {o.tolist()}")
     if not (0 <= w.start[0] <= w.size[0] and 0 <= w.start[1] <= w.size[1]):
         raise WorldFileError(path, "start.pose", f"outside the world's size {list(w.size)}")
+    near = min(w.nodes, key=lambda n: math.dist(w.nodes[n], w.start[:2]))
+    to_route = np.array([[w.start[:2], w.nodes[near]]], dtype=float)
+    if segments_cross(to_route, w.walls).any():  # the robot starts on the route's nearest node
+        raise WorldFileError(
+            path,
+            "start.pose",
+            f"a wall stands between the start and the route's nearest node {near!r} ({list(w.nodes[near])})",
+        )
     crossing = segments_cross(w.edge_segments(), w.walls)
     if crossing.any():
         i, j = np.argwhere(crossing)[0]
