@@ -22,6 +22,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, X
 
+from ratslam.arcs import check_tick
 from ratslam.yaw_bias import YawBiasSearch
 
 from .closures import SceneIndex
@@ -130,10 +131,7 @@ class PoseGraphSLAM:
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
         """Advance one tick: odometry (dt s, v_trans m/s, v_rot rad/s) and a scene number."""
         dt, v, w = float(dt), float(v_trans), float(v_rot)
-        if not (math.isfinite(dt) and math.isfinite(v) and math.isfinite(w)):
-            raise ValueError(f"step: non-finite input dt={dt}, v_trans={v}, v_rot={w}")
-        if dt < 0.0:
-            raise ValueError(f"step: dt must be non-negative, got {dt}")
+        check_tick(dt, v, w)
         scene = _scene_number(scene_id)
         self._advance(dt, v, w, scene)
         if self._search is not None:

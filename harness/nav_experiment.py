@@ -32,7 +32,6 @@ The run directory (staged: it appears only when complete, see :mod:`harness.run_
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
@@ -340,7 +339,7 @@ def _fmt(v, spec: str = ".2f") -> str:
 def is_nav_run(run_dir) -> bool:
     """Whether ``run_dir`` holds a navigation experiment's metrics (``"experiment": "nav"``)."""
     try:
-        m = json.loads((Path(run_dir) / "metrics.json").read_text())
+        m = read_json(Path(run_dir) / "metrics.json")
     except (OSError, ValueError):
         return False  # not readable: the run directory's own report says why
     return isinstance(m, dict) and m.get("experiment") == "nav"

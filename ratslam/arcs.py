@@ -8,10 +8,21 @@ exact circular arc, b a yaw-rate bias (0 unless one is known).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 SMALL_TURN = 1e-6
 """Below this turn (rad) per tick, the arc's sin/cos terms use their series."""
+
+
+def check_tick(dt: float, v_trans: float, v_rot: float) -> None:
+    """A ValueError for a tick no odometry can be integrated from: a non-finite value or a
+    negative dt (both systems' ``step`` call it)."""
+    if not (math.isfinite(dt) and math.isfinite(v_trans) and math.isfinite(v_rot)):
+        raise ValueError(f"step: non-finite input dt={dt}, v_trans={v_trans}, v_rot={v_rot}")
+    if dt < 0.0:
+        raise ValueError(f"step: dt must be non-negative, got {dt}")
 
 
 def tick_increments(dt: np.ndarray, v: np.ndarray, w: np.ndarray, bias: float = 0.0):

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .arcs import check_tick
 from .config import RatSLAMConfig
 from .config_fields import from_dict
 from .experience_map import ExperienceMap
@@ -101,10 +102,7 @@ class RatSLAM:
 
     def _check_tick(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
         """A ValueError naming the problem for a tick the pipeline cannot take."""
-        if not (math.isfinite(dt) and math.isfinite(v_trans) and math.isfinite(v_rot)):
-            raise ValueError(f"step: non-finite input dt={dt}, v_trans={v_trans}, v_rot={v_rot}")
-        if dt < 0.0:
-            raise ValueError(f"step: dt must be non-negative, got {dt}")
+        check_tick(dt, v_trans, v_rot)
         pc = self._config.pose_cells
         extent = min(pc.nx, pc.ny) * pc.cell_size_m
         if abs(v_trans * dt) >= extent:  # the packet would wrap around the grid within the tick

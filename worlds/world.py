@@ -440,10 +440,15 @@ def _inside(xy, size, margin: float = 1e-9) -> bool:
     return -margin <= xy[0] <= size[0] + margin and -margin <= xy[1] <= size[1] + margin
 
 
+def _rect_inside(rect, size) -> bool:
+    """Whether rectangle ``[x0, y0, x1, y1]`` lies inside the world's size."""
+    return _inside(rect[:2], size) and _inside(rect[2:], size)
+
+
 def _check_bounds(path, w: World):
     """Everything placed inside the world's size: walls, obstacles, route nodes, look-alike regions."""
     for i, o in enumerate(w.obstacles):
-        if not (_inside(o[:2], w.size) and _inside(o[2:], w.size)):
+        if not _rect_inside(o, w.size):
             raise WorldFileError(
                 path, f"obstacles.rectangles[{i}]", f"{o.tolist()} is outside the world's size {list(w.size)}"
             )
@@ -458,7 +463,7 @@ def _check_bounds(path, w: World):
             raise WorldFileError(path, f"route.nodes.{name}", f"{list(xy)} is outside the world's size {list(w.size)}")
     for i, (src, dst) in enumerate(w.scenes.lookalikes):
         for k, r in enumerate((src, dst)):
-            if not (_inside(r[:2], w.size) and _inside(r[2:], w.size)):
+            if not _rect_inside(r, w.size):
                 raise WorldFileError(
                     path, f"scenes.lookalikes[{i}][{k}]", f"{list(r)} is outside the world's size {list(w.size)}"
                 )
