@@ -12,10 +12,19 @@ projection onto the route ahead (within ``window_m``; of projections about as ne
 nearest, the one furthest along, so a route that starts behind the robot, at a stale current
 experience or at keyframes just driven, is skipped rather than driven back); it steers for the
 route point ``lookahead_m`` beyond, turning on the spot beyond 60 degrees of heading error, like
-the exploring robot. Progress is placed anew (within ``window_m``) after each plan only; then it
-advances no faster than the pose moves, so a later part of the route lying near (across a wall,
-past a door) never pulls the robot off the part it is on. Arrival: the pose within ``arrive_m``
-of the goal point.
+the exploring robot; a target behind (beyond ``TURN_HOLD_RAD``) is turned to the way the robot
+already turns (a command acts a tick late, so at 180 deg, where the nearer way round flips with
+each tick, choosing it afresh each tick leaves the robot rocking on the spot). Progress is
+placed anew (within ``window_m``) after each plan only; then it advances no faster than the pose
+moves, so a later part of the route lying near (across a wall, past a door) never pulls the robot
+off the part it is on. Arrival: the pose within ``arrive_m`` of the goal point.
+
+Lost. A navigator may say it is lost (``nav.lost``: the map localiser, after metres without a
+scene it knows, having left the routes the map was built on) and offer its way back
+(``nav.way_back()``: its own path back to where it last matched the map). The controller then
+drives that way back instead of the route; found again, it plans the goal afresh (a replan); at
+the way back's end and still lost, it tells the navigator (``nav.give_up_way_back()``) and
+follows the route again. Navigators without ``lost`` are never lost.
 
 Blocked. The map shows no walls, so a robot whose pose is off may drive into one. When forward
 commands have not moved the pose (the robot's own odometry) for ``blocked_s``, it reverses at half
@@ -31,9 +40,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
+
+TURN_HOLD_RAD = math.radians(150.0)
 
 
 class RouteLike(Protocol):
@@ -55,6 +66,17 @@ class NavigableMap(Protocol):
     def plan(self, goal_xy) -> RouteLike: ...
 
     def node_xy(self, nodes: np.ndarray) -> np.ndarray: ...
+
+
+class LosableMap(NavigableMap, Protocol):
+    """A navigator that can tell it is lost and offer its way back (the map localiser's)."""
+
+    @property
+    def lost(self) -> bool: ...
+
+    def way_back(self) -> np.ndarray: ...
+
+    def give_up_way_back(self) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -91,6 +113,8 @@ class RouteController:
         self._s = -1.0  # progress along the route (m; -1: not placed on the route yet)
         self._last_xy: tuple[float, float] | None = None  # the pose at the previous command
         self._v_last = 0.0  # the previous command's speed
+        self._w_last = 0.0  # ... and turn rate
+        self._retracing = False  # driving back to where the map last matched
         self._t_blocked = 0.0  # how long forward commands have not moved the pose
         self._backing = 0.0  # time left reversing off an obstacle
         self._t = 0.0
@@ -140,6 +164,9 @@ class RouteController:
             return self._out(-0.5 * p.speed, 0.0)
         if self.status != "ok":  # the replan after backing off found no route
             return self._out(0.0, 0.0)
+        back = self._way_back(x, y, th)
+        if back is not None:
+            return back
         # the route as it lies in the map now: its nodes, then the goal point
         pts = np.vstack((self.nav.node_xy(self._nodes), [self.goal]))
         along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
@@ -167,14 +194,42 @@ class RouteController:
             return self.command(0.0)
         s_target = self._s + p.lookahead_m
         target = self.goal if s_target >= total or d_goal < p.lookahead_m else _point_at(pts, along, s_target)
+        return self._steer(target, x, y, th)
+
+    def _way_back(self, x: float, y: float, th: float) -> tuple[float, float] | None:
+        """A navigator that says it is lost (``nav.lost``; the map localiser's) is driven back along
+        its own path to where it last matched the map (``nav.way_back()``); found again, the goal
+        is planned afresh. None: not lost, follow the route."""
+        if not getattr(self.nav, "lost", False):
+            if self._retracing:
+                self._retracing = False
+                self._replan()
+            return None
+        self._retracing = True
+        nav = cast(LosableMap, self.nav)
+        pts = nav.way_back()
+        if len(pts) < 2 or math.hypot(pts[-1][0] - x, pts[-1][1] - y) < self.params.arrive_m:
+            nav.give_up_way_back()  # back there and nothing matched: go on from here
+            return None
+        along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
+        s, _ = _project_on_route((x, y), pts, along, 0.0, float(along[-1]), self.params.skip_tolerance_m)
+        return self._steer(_point_at(pts, along, s + self.params.lookahead_m), x, y, th)
+
+    def _steer(self, target, x: float, y: float, th: float) -> tuple[float, float]:
+        """Pure pursuit towards ``target``: turn on the spot beyond 60 deg of heading error."""
+        p = self.params
         err = (math.atan2(target[1] - y, target[0] - x) - th + math.pi) % (2.0 * math.pi) - math.pi
         max_turn = math.radians(p.max_turn_rate_deg)
+        if abs(err) > TURN_HOLD_RAD and self._w_last != 0.0:
+            # a target behind: keep turning the way the robot already turns (the command acts a
+            # tick late, and at +/-180 deg the nearer way round flips with every tick)
+            err = math.copysign(abs(err), self._w_last)
         v_rot = max(-max_turn, min(max_turn, p.turn_gain * err))
         v_trans = p.speed * max(0.0, 1.0 - abs(err) / (math.pi / 3))
         return self._out(v_trans, v_rot)
 
     def _out(self, v_trans: float, v_rot: float) -> tuple[float, float]:
-        self._v_last = v_trans
+        self._v_last, self._w_last = v_trans, v_rot
         return v_trans, v_rot
 
     def _recovering(self, dt: float, moved: float) -> bool:

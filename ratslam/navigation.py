@@ -201,6 +201,19 @@ class LocalisingNavigator:
         x, y, th = self.localiser.experience_poses[int(node)]
         return float(x), float(y), float(th)
 
+    @property
+    def lost(self) -> bool:
+        """Whether the localiser has gone too far without matching the map (see MapLocaliser)."""
+        return self.localiser.lost
+
+    def way_back(self) -> np.ndarray:
+        """Map points back along the path to the latest match, newest first."""
+        return self.localiser.way_back()
+
+    def give_up_way_back(self) -> None:
+        """Back at the latest match without a new one: start the way back anew from here."""
+        self.localiser.give_up_way_back()
+
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
         """Advance the localiser one tick on an observation."""
         self.localiser.step(dt, v_trans, v_rot, scene_id)

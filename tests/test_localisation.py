@@ -2,6 +2,7 @@
 tracked from the odometry and scene onsets alone, on a copy of the map that navigating never
 changes. Issue claim it serves: a saved RatSLAM map can be loaded and navigated on."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -43,19 +44,119 @@ def _drive(loc, metres: float, scale: float = 1.0, scenes: bool = True):
 def test_scene_onsets_hold_the_pose_against_an_odometry_scale_error():
     """The wheels read 10% fast: dead reckoning is 1.5 m ahead after 15 m, the localiser within
     0.3 m (each onset places the robot within its 1 m cell, sigma 0.41 m), given a noise model
-    that allows for such an odometry (0.05 m per tick: 0.1 m per metre is 0.22 m over 20 ticks)."""
+    that allows for such an odometry (0.05 m per tick: 0.1 m per metre is 0.22 m over 20 ticks).
+    Trusting the simulator's 0.01 m/s, the filter alone falls behind (more than 1 m); the
+    sequence of sightings relocalises it (ratslam.relocalisation)."""
     slam = _corridor_map()
     model = LocaliserConfig(odom_speed_noise_m_s=0.5)
     dead = MapLocaliser(slam, model)
     true_x = _drive(dead, 15.0, scale=1.1, scenes=False)
     assert dead.pose[0] - true_x == pytest.approx(1.5, abs=0.05)
-    trusting = MapLocaliser(slam)  # the simulator's 0.01 m/s: the scenes that would correct it are gated out
+    trusting = MapLocaliser(slam, LocaliserConfig(relocalise=False))
     _drive(trusting, 15.0, scale=1.1)
     assert abs(trusting.pose[0] - true_x) > 1.0
+    relocalised = MapLocaliser(slam)
+    _drive(relocalised, 15.0, scale=1.1)
+    assert relocalised.relocalisations >= 1 and abs(relocalised.pose[0] - true_x) < 0.5
     loc = MapLocaliser(slam, model)
     true_x = _drive(loc, 15.0, scale=1.1)
     assert loc.updates >= 14
     assert abs(loc.pose[0] - true_x) < 0.3 and abs(loc.pose[1]) < 0.05
+
+
+def test_a_robot_placed_elsewhere_than_the_map_believes_relocalises_from_its_sightings():
+    """A loaded map believes the robot at experience 10 (x = 10 m); it stands at x = 0. Every
+    sighting lies 10 m beyond the gate, but after a few metres the sequence of them places it:
+    within 0.3 m of the truth after 12 m."""
+    slam = _corridor_map()
+    slam.experience_map.current = 10
+    loc = MapLocaliser(slam)
+    assert loc.pose[0] == pytest.approx(10.0)
+    true_x = _drive(loc, 12.0)
+    assert loc.relocalisations >= 1
+    assert abs(loc.pose[0] - true_x) < 0.3 and abs(loc.pose[1]) < 0.1
+
+
+def test_look_alike_stretches_do_not_relocalise_the_robot_onto_either():
+    """Scenes 0-9 are seen at x = 0-9 and again at x = 20-29 (look-alike places); the map believes
+    the robot at x = 10 but it drives from x = 0. Both stretches explain its sightings alike:
+    no relocalisation (a jump between look-alikes would be a guess)."""
+    slam = RatSLAM()
+    em = slam.experience_map
+    for k in range(30):
+        em.add_experience((float(k), 0.0, 0.0), np.zeros(3), k % 10 if k < 10 or k >= 20 else 100 + k, 0)
+    for k in range(29):
+        em.add_transition(k, k + 1, 1.0, 0.0, 0.0, 2.0)
+    em.current = 10
+    loc = MapLocaliser(slam)
+    _drive(loc, 9.5)
+    assert loc.relocalisations == 0
+
+
+def test_a_flickering_scene_is_one_sighting():
+    """Near each cell border the previous cell's number flickers back in: still one measurement
+    per cell, as without flicker (a flicker onset at the far side of a cell, taken again, pulls
+    the robot back to the cell's entry by up to a cell)."""
+
+    def run(config, flicker):
+        loc = MapLocaliser(_corridor_map(), config)
+        true_x = 0.0
+        for i in range(int(round(10.0 / (SPEED * DT)))):
+            true_x += SPEED * DT
+            k = int(math.floor(true_x))
+            loc.step(DT, SPEED, 0.0, k - 1 if flicker and true_x - k < 0.15 and i % 2 and k > 0 else k)
+        return loc.updates
+
+    one_each = LocaliserConfig(relocalise=False)
+    assert run(one_each, flicker=True) == run(one_each, flicker=False) == 11  # cells 0-10
+    assert run(dataclasses.replace(one_each, repeat_m=0.0), flicker=True) >= 19  # every flicker taken
+
+
+def test_a_sighting_measures_the_centre_of_its_views_experiences_at_that_place():
+    """Scene 7 has two experiences 0.8 m apart (one place, entered twice); the robot, believed at
+    the first, sees it: the measurement is their centre, 0.4 m on, not the nearer of them."""
+    slam = RatSLAM()
+    em = slam.experience_map
+    em.add_experience((0.0, 0.0, 0.0), np.zeros(3), 7, 0)
+    em.add_experience((0.8, 0.0, 0.0), np.zeros(3), 7, 0)
+    em.add_transition(0, 1, 0.8, 0.0, 0.0, 2.0)
+    em.current = 0
+    loc = MapLocaliser(slam, LocaliserConfig(initial_sigma_m=1.0))
+    loc.step(DT, 0.0, 0.0, 7)
+    assert loc.updates == 1 and loc.pose[0] == pytest.approx(0.4 * 1.0 / (1.0 + 1.0 / 6.0), abs=1e-6)
+    nearest = MapLocaliser(slam, LocaliserConfig(initial_sigma_m=1.0, cluster_m=0.0))
+    nearest.step(DT, 0.0, 0.0, 7)
+    assert nearest.pose[0] == pytest.approx(0.0)
+
+
+def test_a_robot_off_the_known_routes_is_lost_and_its_way_back_skips_the_loops_it_drove():
+    """After 5 m of corridor (sightings matched), the robot turns into unknown scenes: 2 m north,
+    1 m back, 2.5 m north again. Lost after ``lost_m`` (3 m) without a match; before that, its way
+    back (``lost_m`` 10 m here) runs from (5, 3.5) straight down to the last match at (5, 0):
+    3.5 m, not the 5.5 m driven. A known scene matched again ends it."""
+
+    def leg(loc, metres, heading, scene_base):
+        for i in range(int(round(abs(metres) / (SPEED * DT)))):
+            loc.step(DT, math.copysign(SPEED, metres), heading, scene_base + i // 5)
+
+    for lost_m, expect_lost in ((3.0, True), (10.0, False)):
+        loc = MapLocaliser(_corridor_map(), LocaliserConfig(lost_m=lost_m, relocalise=False))
+        _drive(loc, 5.1)  # scene 5 matched at x = 5.05
+        assert not loc.lost
+        leg(loc, 0.0, 0.0, -1)
+        for _ in range(int(round((math.pi / 2) / (1.0 * DT)))):  # turn left on the spot, 1 rad/s
+            loc.step(DT, 0.0, 1.0, -1)
+        leg(loc, 2.0, 0.0, 500)
+        leg(loc, -1.0, 0.0, 600)
+        leg(loc, 2.5, 0.0, 700)
+        assert loc.lost is expect_lost
+        if not expect_lost:
+            back = loc.way_back()
+            assert np.hypot(*(back[0] - loc.pose[:2])) < 0.25
+            assert np.hypot(*(back[-1] - (5.05, 0.0))) < 0.1
+            assert np.sum(np.hypot(*np.diff(back, axis=0).T)) == pytest.approx(3.5, abs=0.3)
+    loc.step(DT, 0.0, 0.0, 5)  # the corridor's scene 5 seen again (here within the gate)
+    assert not loc.lost
 
 
 def test_a_scene_whose_experiences_lie_beyond_the_gate_is_ignored():

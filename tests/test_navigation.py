@@ -326,3 +326,58 @@ def test_closed_loop_small_loop_reaches_goals(tmp_path):
         assert first.reached, (name, first)
         assert first.time_ratio < 1.5
         assert nav.summary()["goals"] == 3
+
+
+def test_controller_turns_round_to_a_target_behind_although_its_commands_act_a_tick_late():
+    """Facing away from the route (goal 3 m behind), with each command acting one tick late (as
+    the simulator's body does) and the last one a right turn, the robot turns round and arrives;
+    choosing the nearer way round afresh each tick left it rocking +/- 8 deg on the spot at 180 deg
+    (office_floor seed 3: two goals timed out so)."""
+    robot = _PointRobot()
+    robot.pose = (5.0, 0.0, math.radians(1.0))
+    ctrl = RouteController(robot, ControllerParams())
+    ctrl.set_goal((2.0, 0.0))
+    dt, t, late = 1 / 7, 0.0, (0.0, -math.radians(60.0))  # it was turning right a tick ago
+    while not ctrl.arrived and t < 60:
+        command = ctrl.command(dt)
+        robot.move(*late, dt)
+        late = command
+        t += dt
+    assert ctrl.arrived and t < 3.0 / 0.3 + 10.0
+
+
+class _LostRobot(_PointRobot):
+    """A point robot whose navigator says it is lost, with a way back along the y axis."""
+
+    lost = True
+
+    def __init__(self):
+        super().__init__()
+        self.gave_up = 0
+
+    def way_back(self):
+        return np.stack((np.full(5, 4.0), np.linspace(3.0, 0.0, 5)), axis=1)
+
+    def give_up_way_back(self):
+        self.gave_up += 1
+        self.lost = False
+
+
+def test_a_lost_robot_drives_its_way_back_then_plans_afresh():
+    """Lost (the map localiser's ``lost``) at (4, 3), the robot drives its way back down to
+    (4, 0), not the route to the goal; there, still lost, it gives the way back up and plans."""
+    robot = _LostRobot()
+    robot.pose = (4.0, 3.0, 0.0)
+    ctrl = RouteController(robot, ControllerParams())
+    ctrl.set_goal((8.0, 0.0))
+    dt, ys = 1 / 7, []
+    for _ in range(int(30.0 / dt)):
+        robot.move(*ctrl.command(dt), dt)
+        ys.append(robot.pose[1])
+        if robot.gave_up:
+            break
+    assert robot.gave_up == 1 and abs(robot.pose[0] - 4.0) < 0.3 and robot.pose[1] < 0.3
+    assert max(ys) <= 3.01  # straight back down, never on towards the goal first
+    plans = robot.plans
+    robot.move(*ctrl.command(dt), dt)
+    assert robot.plans == plans + 1  # found (given up): the goal planned afresh
