@@ -197,7 +197,7 @@ def _cmd_nav(args) -> None:
         recording=not args.no_recording,
         show_progress=not args.quiet,
         lookalikes=not args.no_lookalikes,
-        ratslam_localise=args.localise,
+        ratslam_localise=not args.stepping,
     )
     m = read_json(out / "metrics.json")
     for name, s in m["summary"].items():
@@ -406,11 +406,21 @@ def build_parser() -> argparse.ArgumentParser:
     nv.add_argument("--exploration", type=float, help="exploration, simulated seconds (default: the world's)")
     nv.add_argument("--out", help="run directory (default: reports/nav_WORLD)")
     nv.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
-    nv.add_argument(
+    mode = nv.add_mutually_exclusive_group()
+    mode.add_argument(
         "--localise",
+        dest="stepping",
+        action="store_false",
+        default=False,
+        help="navigate RatSLAM's explored map, fixed, by localising on it (ratslam.localisation: a Kalman filter "
+        "on the odometry and scene sightings, relocalisation, the way back when lost); the default",
+    )
+    mode.add_argument(
+        "--stepping",
         action="store_true",
-        help="navigate RatSLAM's explored map by localising on it (a Kalman filter on the fixed map: odometry "
-        "and scene onsets) instead of stepping RatSLAM",
+        default=False,
+        help="navigate with RatSLAM stepping on (pose cells, view cells, experience map: its own pose and a map "
+        "that goes on changing) instead",
     )
     nv.add_argument(
         "--no-lookalikes",

@@ -375,9 +375,10 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
         "throughout and no loop-closure sequence (`navigation_ratslam_config`, whose module says why). "
         + (
             "Navigating, RatSLAM's explored map is fixed and the robot localised on it "
-            "(`--localise`, `ratslam.localisation`). "
+            "(`ratslam.localisation`: a Kalman filter on the odometry and scene sightings, relocalisation "
+            "from their sequence, the way back when lost). "
             if m["settings"].get("ratslam_navigation", "").startswith("localisation")
-            else ""
+            else "Navigating, RatSLAM goes on stepping (`--stepping`). "
         )
         + "The world's "
         + (
@@ -448,12 +449,13 @@ def run_nav_experiment(
     recording: bool = True,
     show_progress: bool = True,
     lookalikes: bool = True,
-    ratslam_localise: bool = False,
+    ratslam_localise: bool = True,
 ) -> Path:
     """Run the navigation experiment on ``world`` into ``out`` (default ``reports/nav_WORLD``);
     ``exploration_s`` None: the world's duration; ``lookalikes=False``: the world's look-alike
-    regions show their own scenes (as Fig 4's distinct_rooms variant); ``ratslam_localise``:
-    navigate RatSLAM's explored map by :mod:`ratslam.localisation` instead of stepping RatSLAM.
+    regions show their own scenes (as Fig 4's distinct_rooms variant); ``ratslam_localise``
+    (default): navigate RatSLAM's explored map, fixed, by :mod:`ratslam.localisation`; False: with
+    RatSLAM stepping on.
     Returns the run directory."""
     _check(n_goals, exploration_s, seed)
     w = load_world(world)

@@ -275,7 +275,7 @@ def run_navigation(
     goal_radius: float = 1.0,
     lookalikes: bool = True,
     ratslam_config: RatSLAMConfig | None = None,
-    ratslam_localise: bool = False,
+    ratslam_localise: bool = True,
     gtsam_config: PoseGraphConfig | None = None,
     controller: ControllerParams | None = None,
     timeout_factor: float = 3.0,
@@ -289,9 +289,11 @@ def run_navigation(
     system's map (see the module docstring). ``goal_radius``: a node within this of the goal
     point is the goal node; ``success_radius``: judged on ground truth; ``lookalikes=False``: the
     world's look-alike regions show their own scenes. Writes JSON to ``out`` if given;
-    ``ratslam_config`` None: :func:`navigation_ratslam_config`. ``trace`` keeps per-tick true and
-    estimated poses; ``progress(system, done, total)``: system "exploration" counts ticks, the
-    others goals; ``hooks``: observers (recording, saving the map; see :class:`NavigationHooks`)."""
+    ``ratslam_config`` None: :func:`navigation_ratslam_config`; ``ratslam_localise`` (default):
+    navigate RatSLAM's explored map, fixed, by :mod:`ratslam.localisation` (False: with RatSLAM
+    stepping on); ``trace`` keeps per-tick true and estimated poses; ``progress(system, done,
+    total)``: system "exploration" counts ticks, the others goals; ``hooks``: observers
+    (recording, saving the map; see :class:`NavigationHooks`)."""
     for s in systems:
         if s not in SYSTEMS:
             raise ValueError(f"unknown system {s!r} (known: {', '.join(SYSTEMS)})")

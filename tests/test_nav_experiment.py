@@ -141,12 +141,17 @@ def test_cli_nav_options():
 
 
 def test_navigating_the_saved_map_in_localisation_mode(tmp_path):
-    """``--localise``: the explored map, saved, is the one navigated (a copy, never stepped), and
-    the run says so; the same exploration and goals as without it."""
+    """Localisation (the default): the explored map, saved, is the one navigated (a copy, never
+    stepped), and the run says so; the same exploration and goals as with RatSLAM stepping
+    (``--stepping``); the CLI's default and both flags."""
+    from harness.cli import build_parser
     from harness.navigation import run_navigation
 
-    loc = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",), ratslam_localise=True, trace=True)
-    slam = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",))
+    loc = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",), trace=True)
+    slam = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",), ratslam_localise=False)
+    parse = build_parser().parse_args
+    assert not parse(["nav", "x"]).stepping and not parse(["nav", "x", "--localise"]).stepping
+    assert parse(["nav", "x", "--stepping"]).stepping
     assert loc.settings["ratslam_navigation"].startswith("localisation")
     assert slam.settings["ratslam_navigation"].startswith("RatSLAM stepping")
     a, b = loc.systems["ratslam"].outcomes, slam.systems["ratslam"].outcomes
