@@ -410,6 +410,9 @@ def write_report(run_dir: Path, m: dict, recording: bool) -> Path:
         ("arrival error median / max (m)",
          lambda s: f"{_fmt(s['arrival_error_median_m'])} / {_fmt(s['arrival_error_max_m'])}"),
         ("outcomes", lambda s: ", ".join(f"{k} {v}" for k, v in sorted(s["statuses"].items()))),
+        ("localiser: sightings matched / relocalisations / times lost (ways back given up)",
+         lambda s: "{sightings_matched} / {relocalisations} / {times_lost} ({ways_back_given_up})".format(
+             **s["localiser"]) if "localiser" in s else "–"),
     )  # fmt: skip
     for label, f in rows:
         lines.append(f"| {label} | " + " | ".join(f(m["summary"][s]) for s in systems) + " |")

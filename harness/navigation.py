@@ -139,6 +139,7 @@ class SystemNavigation:
     system: str
     outcomes: list[GoalOutcome]
     trace: dict = field(default_factory=dict, repr=False)  # per-tick arrays, not written to JSON
+    localiser: dict = field(default_factory=dict)  # RatSLAM on a fixed map: MapLocaliser.stats()
 
     @property
     def success_rate(self) -> float:
@@ -171,7 +172,7 @@ class SystemNavigation:
             "statuses": statuses,
             "arrival_error_median_m": float(np.median(err)) if len(err) else math.nan,
             "arrival_error_max_m": float(err.max()) if len(err) else math.nan,
-        }
+        } | ({"localiser": self.localiser} if self.localiser else {})
 
 
 @dataclass
@@ -433,4 +434,5 @@ def _navigate(
         if progress is not None:
             progress(system, g + 1, len(goal_ticks))
     arrays = {key: np.asarray(v) for key, v in tr.items()} if trace else {}
-    return SystemNavigation(system, outcomes, arrays)
+    localiser = getattr(nav, "localiser", None)
+    return SystemNavigation(system, outcomes, arrays, localiser.stats() if localiser is not None else {})

@@ -123,6 +123,9 @@ class MapLocaliser:
         self._matched_m = 0.0  # path length at the latest match
         self.updates = 0  # sightings taken as measurements
         self.relocalisations = 0
+        self.times_lost = 0  # how often the robot became lost
+        self.ways_back_given_up = 0  # ... and came back to its latest match without a new one
+        self._was_lost = False
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -150,7 +153,18 @@ class MapLocaliser:
 
     def give_up_way_back(self) -> None:
         """Back where the latest match was and still none: the way back starts anew from here."""
+        self.ways_back_given_up += 1
         self._matched()
+
+    def stats(self) -> dict[str, int]:
+        """Counts of what the localiser did: sightings taken, relocalisations, times lost, ways
+        back given up."""
+        return {
+            "sightings_matched": self.updates,
+            "relocalisations": self.relocalisations,
+            "times_lost": self.times_lost,
+            "ways_back_given_up": self.ways_back_given_up,
+        }
 
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
         """One tick: predict with the odometry, update at a new sighting of a scene."""
@@ -175,7 +189,10 @@ class MapLocaliser:
         dth = self._dr[2] + w * dt
         self._dr = np.array([self._dr[0] + v * dt * math.cos(dth), self._dr[1] + v * dt * math.sin(dth), dth])
         self._path_m += abs(v * dt)
-        if not self.lost and self._path_m - self._trail_m >= self.config.trail_step_m:
+        lost = self.lost
+        self.times_lost += int(lost and not self._was_lost)
+        self._was_lost = lost
+        if not lost and self._path_m - self._trail_m >= self.config.trail_step_m:
             self._extend_trail()
 
     def _new_sighting(self, scene: int) -> bool:

@@ -150,6 +150,7 @@ def test_a_robot_off_the_known_routes_is_lost_and_its_way_back_skips_the_loops_i
         leg(loc, -1.0, 0.0, 600)
         leg(loc, 2.5, 0.0, 700)
         assert loc.lost is expect_lost
+        assert loc.stats()["times_lost"] == int(expect_lost)
         if not expect_lost:
             back = loc.way_back()
             assert np.hypot(*(back[0] - loc.pose[:2])) < 0.25

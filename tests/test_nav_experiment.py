@@ -43,6 +43,9 @@ def test_cli_nav_writes_every_file(tmp_path):
         assert len(m["goals"][system]) == 2
         assert {"status", "time_s", "shortest_time_s", "time_ratio", "replans"} <= set(m["goals"][system][0])
     assert set(m["exploration_map_ate_m"]) == {"ratslam", "gtsam"}
+    loc = m["summary"]["ratslam"]["localiser"]  # RatSLAM navigated its fixed map (the default)
+    assert set(loc) == {"sightings_matched", "relocalisations", "times_lost", "ways_back_given_up"}
+    assert loc["sightings_matched"] > 0 and "localiser" not in m["summary"]["gtsam"]
     assert m["provenance"]["git_commit"] and m["provenance"]["packages"]["numpy"]
     assert m["settings"]["ratslam_config"]["reentry"] and m["settings"]["gtsam_config"]
     report = (out / "report.md").read_text()
