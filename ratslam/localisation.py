@@ -178,16 +178,13 @@ class MapLocaliser:
         self._last_scene = scene
 
     def _predict(self, dt: float, v: float, w: float) -> None:
-        x, y, th = self.x
-        th += w * dt  # heading first, as ExperienceMap.integrate
-        c, s = math.cos(th), math.sin(th)
+        self.x = _advance(self.x, dt, v, w)
+        c, s = math.cos(self.x[2]), math.sin(self.x[2])
         f = np.array([[1.0, 0.0, -v * dt * s], [0.0, 1.0, v * dt * c], [0.0, 0.0, 1.0]])
         g = np.array([[dt * c, -v * dt * dt * s], [dt * s, v * dt * dt * c], [0.0, dt]])  # d/d(v, w)
         q = np.diag([self.config.odom_speed_noise_m_s**2, self.config.odom_heading_noise_rad_s**2])
-        self.x = np.array([x + v * dt * c, y + v * dt * s, th])
         self.cov = f @ self.cov @ f.T + g @ q @ g.T
-        dth = self._dr[2] + w * dt
-        self._dr = np.array([self._dr[0] + v * dt * math.cos(dth), self._dr[1] + v * dt * math.sin(dth), dth])
+        self._dr = _advance(self._dr, dt, v, w)
         self._path_m += abs(v * dt)
         lost = self.lost
         self.times_lost += int(lost and not self._was_lost)
@@ -253,3 +250,9 @@ class MapLocaliser:
         else:
             self._trail.append(here)
         self._trail_m = self._path_m
+
+
+def _advance(pose: np.ndarray, dt: float, v: float, w: float) -> np.ndarray:
+    """``pose`` (x, y, θ) after one tick of odometry, heading first (as ExperienceMap.integrate)."""
+    th = pose[2] + w * dt
+    return np.array([pose[0] + v * dt * math.cos(th), pose[1] + v * dt * math.sin(th), th])

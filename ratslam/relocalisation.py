@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .experience_map import wrap_angle
+
 SAME_SECTOR_RAD = math.pi / 2  # a scene number is seen facing within one of 4 heading sectors
 
 
@@ -42,7 +44,7 @@ class Alignment:
         """The dead-reckoned ``pose`` (x, y, θ) in the map's frame."""
         c, s = math.cos(self.phi), math.sin(self.phi)
         x, y, th = pose
-        return np.array([c * x - s * y + self.t[0], s * x + c * y + self.t[1], _wrap(th + self.phi)])
+        return np.array([c * x - s * y + self.t[0], s * x + c * y + self.t[1], wrap_angle(th + self.phi)])
 
     def as_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """(phi (1,), t (1, 2)): this transform as a batch of one hypothesis."""
@@ -61,7 +63,7 @@ class Alignment:
     @classmethod
     def between(cls, map_pose, dr_pose, support: int = 0) -> Alignment:
         """The transform that takes dead-reckoned ``dr_pose`` onto ``map_pose``."""
-        phi = _wrap(map_pose[2] - dr_pose[2])
+        phi = float(wrap_angle(map_pose[2] - dr_pose[2]))
         c, s = math.cos(phi), math.sin(phi)
         t = (map_pose[0] - (c * dr_pose[0] - s * dr_pose[1]), map_pose[1] - (s * dr_pose[0] + c * dr_pose[1]))
         return cls(phi, t, support)
@@ -122,7 +124,7 @@ def support(phi: np.ndarray, t: np.ndarray, window: OnsetWindow, index: ViewInde
             continue
         qx, qy = c * x - s * y + t[:, 0], s * x + c * y + t[:, 1]
         near = np.hypot(qx[:, None] - exp[None, :, 0], qy[:, None] - exp[None, :, 1]) < inlier_m
-        facing = np.abs(_wrap(th + phi[:, None] - exp[None, :, 2])) < SAME_SECTOR_RAD
+        facing = np.abs(wrap_angle(th + phi[:, None] - exp[None, :, 2])) < SAME_SECTOR_RAD
         count += np.any(near & facing, axis=1)
     return count
 
@@ -156,7 +158,7 @@ def best_alignment(
         ia, ib = np.nonzero(ok)
         if not len(ia):
             continue
-        phi = _wrap(np.arctan2(d_map[ia, ib, 1], d_map[ia, ib, 0]) - math.atan2(d_dr[1], d_dr[0]))
+        phi = wrap_angle(np.arctan2(d_map[ia, ib, 1], d_map[ia, ib, 0]) - math.atan2(d_dr[1], d_dr[0]))
         c, s = np.cos(phi), np.sin(phi)
         t = ea[ia, :2] - np.stack((c * last[0] - s * last[1], s * last[0] + c * last[1]), axis=1)
         phis.append(phi)
@@ -173,7 +175,7 @@ def best_alignment(
     c, s = np.cos(phi), np.sin(phi)
     qx, qy = c * last[0] - s * last[1] + t[:, 0], s * last[0] + c * last[1] + t[:, 1]
     at = best.apply(last)
-    elsewhere = (np.hypot(qx - at[0], qy - at[1]) > 2.0 * inlier_m) | (np.abs(_wrap(phi - best.phi)) > math.pi / 6)
+    elsewhere = (np.hypot(qx - at[0], qy - at[1]) > 2.0 * inlier_m) | (np.abs(wrap_angle(phi - best.phi)) > math.pi / 6)
     runner_up = int(score[elsewhere].max()) if np.any(elsewhere) else 0
     return best, runner_up
 
@@ -189,7 +191,7 @@ def _inliers(a: Alignment, window: OnsetWindow, index: ViewIndex, inlier_m: floa
             continue
         q = a.apply(pose)
         d = np.hypot(exp[:, 0] - q[0], exp[:, 1] - q[1])
-        d[np.abs(_wrap(q[2] - exp[:, 2])) >= SAME_SECTOR_RAD] = np.inf
+        d[np.abs(wrap_angle(q[2] - exp[:, 2])) >= SAME_SECTOR_RAD] = np.inf
         k = int(np.argmin(d))
         if d[k] < inlier_m:
             src.append(pose[:2])
@@ -206,7 +208,3 @@ def _refine(a: Alignment, window: OnsetWindow, index: ViewIndex, inlier_m: float
     r = a.fitted(src, dst)
     n = int(support(*r.as_arrays(), window, index, inlier_m)[0])
     return Alignment(r.phi, r.t, n) if n >= a.support else a
-
-
-def _wrap(a):
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
