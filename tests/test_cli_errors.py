@@ -1,6 +1,8 @@
 """One base for user-facing errors: the CLI reports an ``InputError`` as one line (exit 2) and
 lets anything else, a bug, raise with its traceback."""
 
+from pathlib import Path
+
 import pytest
 
 import harness.cli as cli
@@ -81,8 +83,22 @@ def test_other_exceptions_are_bugs_and_raise(error, monkeypatch):
         (("simulate", "small_loop", "--seed", "-5", "--out", "{out}/log.csv"), "--seed: must be a non-negative"),
         (("simulate", "small_loop", "--duration", "1e12", "--out", "{out}/log.csv"), "more than 1e+08 ticks"),
         (("report", "{sweep}"), "runs.csv: line 2: expected"),
+        # a yaw bias of half a turn or more per tick (7 Hz) is no heading at all
+        (("simulate", "small_loop", "--bias", "1e308", "--out", "{out}/log.csv"), "more than half a turn per tick"),
+        # a world whose route cannot hold the aliased pairs its alias_rate asks for
+        (("simulate", "{far_alias}", "--out", "{out}/log.csv"), "far_alias.toml: scenes.alias_min_distance: only 0"),
     ],
-    ids=["config_file", "observation_log", "metrics_json", "tum_import", "seed", "duration", "truncated_runs_csv"],
+    ids=[
+        "config_file",
+        "observation_log",
+        "metrics_json",
+        "tum_import",
+        "seed",
+        "duration",
+        "truncated_runs_csv",
+        "bias",
+        "alias_min_distance",
+    ],
 )
 def test_bad_inputs_are_one_line(tmp_path, args, expected):
     (tmp_path / "bad.toml").write_text('[ratslam.pose_cells]\nnx = "sixty"\n')
@@ -94,7 +110,12 @@ def test_bad_inputs_are_one_line(tmp_path, args, expected):
     from harness.sweep_report import COLUMNS
 
     (tmp_path / "sweep" / "runs.csv").write_text(",".join(COLUMNS) + "\nrun-1,small_loop\n")  # cut short
+    small_loop = (Path(__file__).parents[1] / "worlds" / "small_loop.toml").read_text()
+    (tmp_path / "far_alias.toml").write_text(
+        small_loop.replace("alias_rate = 0.1", "alias_rate = 0.1\nalias_min_distance = 100.0")
+    )
     paths = {
+        "far_alias": tmp_path / "far_alias.toml",
         "bad_config": tmp_path / "bad.toml",
         "bad_log": tmp_path / "bad.csv",
         "bad_run": tmp_path / "run",

@@ -217,3 +217,19 @@ def test_report_rebuilds_from_runs_csv(tmp_path):
     assert (out / "report.md").read_text() == first
     assert (out / "curve_fp_rate.png").read_bytes()[:4] == b"\x89PNG"
     assert "| system | fp_rate | odometric_bias |" in first
+
+
+def test_a_sweep_into_another_specs_folder_says_so(tmp_path):
+    """The folder's sweep.toml is replaced by the spec run now, with a line saying so (the runs
+    already there stay and are reused where the same run is asked for); the same spec again
+    says nothing."""
+    tiny = '[base]\nworld = "small_loop"\nduration = 10.0\n[axes]\nfp_rate = [{fp}]\n[seeds]\ncount = 1\n'
+    tiny += '[systems.ratslam]\nsystem = "ratslam"\n'
+    first = _spec(tmp_path, tiny.format(fp=0.002), name="first.toml")
+    second = _spec(tmp_path, tiny.format(fp=0.01), name="second.toml")
+    out = tmp_path / "out"
+    for spec, warned in ((first, False), (first, False), (second, True)):
+        lines: list[str] = []
+        run_sweep(read_sweep_spec(spec), out, workers=1, log=lines.append)
+        assert any("another spec's" in line for line in lines) == warned, lines
+        assert (out / "sweep.toml").read_text() == spec.read_text()

@@ -69,6 +69,8 @@ def test_user_world_file_loads(tmp_path):
         (("speed = 0.3", "speed = -0.3"), "robot.speed", "must be positive"),
         (("bias_deg_s = 1.5", 'bias_deg_s = "fast"'), "odometry.bias_deg_s", "must be a number"),
         (("bias_deg_s = 1.5", "bias_deg_s = 1.5\nscale_error = 0.9"), "odometry.scale_error", "must be <= 0.5"),
+        # half a turn per tick at the default 7 Hz: no heading can be told from the odometry
+        (("bias_deg_s = 1.5", "bias_deg_s = 1e308"), "odometry.bias_deg_s", "must be <= 1260"),
         (("bias_deg_s = 1.5", "bias_deg_s = 1.5\nslip_duration = 0"), "odometry.slip_duration", "must be positive"),
         (('edges = [["A", "B"], ["A", "C"]]', 'edges = [["A", "Z"]]'), "route.edges[0]", "unknown node"),
         (('name = "tiny"', 'name = "tiny"\n[[oops'), "toml", "not valid TOML"),

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import InputError
 from .world import World
 
 NO_SCENE = -1
@@ -55,6 +56,13 @@ class SceneLayout:
             self._build(world.scenes, (0.0, 0.0), world.size, edges, True, ROUTE_HALF_WIDTH)
         else:
             self._build(world.scenes, (0.0, 0.0), world.size, world.edge_segments(), False, ROUTE_HALF_WIDTH)
+        if self.alias_pairs < self.alias_pairs_wanted:
+            raise InputError(
+                f"{world.path}: scenes.alias_min_distance: only {self.alias_pairs} of the "
+                f"{self.alias_pairs_wanted} aliased pairs that alias_rate {world.scenes.alias_rate:g} asks for "
+                f"can be drawn at least {world.scenes.alias_min_distance:g} m apart among the route's cells; "
+                "lower one of them"
+            )
 
     @classmethod
     def over_path(cls, spec, x, y, margin: float = 2.0) -> SceneLayout:
@@ -112,6 +120,7 @@ class SceneLayout:
             taken[[i, j]] = True
             self.aliased[[i, j]] = True
             pairs += 1
+        self.alias_pairs, self.alias_pairs_wanted = pairs, n_pairs
         # Look-alike regions last, so that aliasing cannot make two look-alike rooms differ.
         for src_rect, dst_rect in s.lookalikes:
             self._copy_region(numbers, src_rect, dst_rect)

@@ -21,7 +21,7 @@ from .observation_log import ObservationLog
 from .odometry_model import measured_odometry
 from .route import RouteFollower
 from .scenes import SceneLayout, observe_scenes
-from .world import MAX_TICKS, World, load_world
+from .world import MAX_TICKS, World, load_world, max_bias_deg_s
 
 WALL_THICKNESS = 0.02  # m (pymunk segment radius)
 
@@ -119,9 +119,15 @@ def simulate(
         raise InputError(f"duration: {duration:g} s at {world.tick_rate:g} Hz is more than {MAX_TICKS:.0e} ticks")
     if not math.isfinite(bias):
         raise ValueError(f"bias: must be a finite number of deg/s, got {bias!r}")
+    if abs(bias) > max_bias_deg_s(world.tick_rate):
+        raise InputError(
+            f"bias: {bias:g} deg/s turns the heading more than half a turn per tick at {world.tick_rate:g} Hz "
+            f"(at most {max_bias_deg_s(world.tick_rate):g} deg/s)"
+        )
     if not (0.0 <= fp <= 1.0):
         raise ValueError(f"fp: false-positive rate must be in [0, 1], got {fp!r}")
 
+    layout = SceneLayout(world)  # a world that cannot hold its aliasing fails before the drive
     dt = world.dt
     n = max(1, int(round(duration / dt)))
     sim = Simulator(world, seed)
@@ -136,9 +142,7 @@ def simulate(
 
     gt = poses[1:]
     s = world.scenes
-    scenes = observe_scenes(
-        SceneLayout(world), gt[:, 0], gt[:, 1], gt[:, 2], scene_rng, s.flicker_width, s.flicker_prob, fp
-    )
+    scenes = observe_scenes(layout, gt[:, 0], gt[:, 1], gt[:, 2], scene_rng, s.flicker_width, s.flicker_prob, fp)
     t = dt * np.arange(1, n + 1)
     return ObservationLog(
         t=t,

@@ -56,6 +56,12 @@ class OdometrySpec:
     slip_fraction: float = 0.2  # the slipping wheel's over-report, as a fraction of the speed
 
 
+def max_bias_deg_s(tick_rate: float) -> float:
+    """The largest yaw-rate bias a log at ``tick_rate`` Hz can carry: half a turn per tick (beyond
+    it a heading change cannot be told from one the other way round)."""
+    return 180.0 * tick_rate
+
+
 @dataclass(frozen=True)
 class SceneSpec:
     """Synthetic place recognition: scene numbers computed from the pose.
@@ -276,7 +282,9 @@ def _parse(path, raw: dict) -> World:
     odo_t = top.table_of("odometry")
     odo_t.check_keys(set(OdometrySpec.__dataclass_fields__))
     odometry = OdometrySpec(
-        bias_deg_s=odo_t.number("bias_deg_s", 0.0),
+        bias_deg_s=odo_t.number(
+            "bias_deg_s", 0.0, minimum=-max_bias_deg_s(tick_rate), maximum=max_bias_deg_s(tick_rate)
+        ),
         noise_trans=odo_t.number("noise_trans", OdometrySpec.noise_trans, minimum=0.0),
         noise_rot=odo_t.number("noise_rot", OdometrySpec.noise_rot, minimum=0.0),
         scale_error=odo_t.number("scale_error", OdometrySpec.scale_error, minimum=-0.5, maximum=0.5),
