@@ -39,12 +39,21 @@ class Alignment:
     phi: float
     t: tuple[float, float]
     support: int
+    spread_m2: float = 0.0
+    """Sum of the squared distances of the inliers it was fitted on from their centroid (0: not
+    fitted): how well the onsets fix its rotation (:meth:`heading_sigma`)."""
 
     def apply(self, pose) -> np.ndarray:
         """The dead-reckoned ``pose`` (x, y, θ) in the map's frame."""
         c, s = math.cos(self.phi), math.sin(self.phi)
         x, y, th = pose
         return np.array([c * x - s * y + self.t[0], s * x + c * y + self.t[1], wrap_angle(th + self.phi)])
+
+    def heading_sigma(self, position_sigma_m: float) -> float:
+        """First-order standard error (rad) of :attr:`phi` for inliers each placed within
+        ``position_sigma_m`` per axis: sigma / sqrt(spread). Onsets bunched in a few metres (a
+        robot going to and fro) leave the rotation loose; inf if not fitted."""
+        return position_sigma_m / math.sqrt(self.spread_m2) if self.spread_m2 > 0.0 else math.inf
 
     def as_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """(phi (1,), t (1, 2)): this transform as a batch of one hypothesis."""
@@ -207,4 +216,5 @@ def _refine(a: Alignment, window: OnsetWindow, index: ViewIndex, inlier_m: float
         return a
     r = a.fitted(src, dst)
     n = int(support(*r.as_arrays(), window, index, inlier_m)[0])
-    return Alignment(r.phi, r.t, n) if n >= a.support else a
+    spread = float(np.sum((src - src.mean(axis=0)) ** 2))
+    return Alignment(r.phi, r.t, n, spread) if n >= a.support else Alignment(a.phi, a.t, a.support, spread)
