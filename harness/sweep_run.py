@@ -235,13 +235,13 @@ def run_sweep(
         shutil.rmtree(stale, ignore_errors=True)
     for stale in out.glob(".*.tmp*"):  # a report file a killed sweep was writing (worlds.files)
         stale.unlink(missing_ok=True)
-    previous = out / "sweep.toml"
-    if previous.is_file() and read_text(previous) != read_text(spec.path):
+    previous, spec_text = out / "sweep.toml", read_text(spec.path)
+    if previous.is_file() and read_text(previous) != spec_text:
         log(
             f"{previous}: another spec's (or an edited one's); replaced by {spec.path}. Runs already in "
             f"{runs_dir} are reused where this spec asks for the same run; the report covers this spec's runs only"
         )
-    atomic_write_text(previous, read_text(spec.path))  # what the runs were made from
+    atomic_write_text(previous, spec_text)  # what the runs were made from
     log(
         f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "
         f"{len(spec.systems)} systems each"

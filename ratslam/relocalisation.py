@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -61,13 +61,13 @@ class Alignment:
 
     def fitted(self, src: np.ndarray, dst: np.ndarray) -> Alignment:
         """The rigid transform taking points ``src`` (K, 2) onto ``dst`` by least squares (2-D
-        Procrustes), with this one's support."""
+        Procrustes), with this one's support and the spread of ``src``."""
         ms, md = src.mean(axis=0), dst.mean(axis=0)
         a, b = src - ms, dst - md
         phi = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
         c, s = math.cos(phi), math.sin(phi)
         t = md - np.array([c * ms[0] - s * ms[1], s * ms[0] + c * ms[1]])
-        return Alignment(phi, (float(t[0]), float(t[1])), self.support)
+        return Alignment(phi, (float(t[0]), float(t[1])), self.support, float(np.sum(a * a)))
 
     @classmethod
     def between(cls, map_pose, dr_pose, support: int = 0) -> Alignment:
@@ -216,5 +216,4 @@ def _refine(a: Alignment, window: OnsetWindow, index: ViewIndex, inlier_m: float
         return a
     r = a.fitted(src, dst)
     n = int(support(*r.as_arrays(), window, index, inlier_m)[0])
-    spread = float(np.sum((src - src.mean(axis=0)) ** 2))
-    return Alignment(r.phi, r.t, n, spread) if n >= a.support else Alignment(a.phi, a.t, a.support, spread)
+    return replace(r, support=n) if n >= a.support else replace(a, spread_m2=r.spread_m2)
