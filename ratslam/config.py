@@ -144,7 +144,9 @@ class ExperienceMapConfig:
     """No re-entry whose innovation lies beyond this squared Mahalanobis distance of the odometry's
     prediction since the robot was last at the place, its noise scaled as the re-entries of the
     odometry have shown, refused ones included (inf = no gate). Needs the re-entry fusion and acts
-    only while the odometry is trusted (``reentry.odometry_trust_limit``). See the docs section."""
+    only while the odometry is trusted (``reentry.odometry_trust_limit``). A re-entry taken with an
+    innovation beyond it (before the gate acts) is not fused: the pose cells' pose. See the docs
+    section."""
 
     def __post_init__(self) -> None:
         check_fields(self)

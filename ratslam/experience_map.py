@@ -24,7 +24,11 @@ Re-entry fusion (``reentry``, on by default; not in the paper, see :mod:`ratslam
 switch, the pose the pose cells give (the experience's map pose composed with the peak's offset)
 and the pose the map and the odometry predict (the current pose) are fused by a Kalman update,
 the prediction's covariance being the odometry's over the path driven since the robot was last at
-that experience; the link and the current pose use the fused pose.
+that experience; the link and the current pose use the fused pose. An innovation beyond
+``experience_map.odometry_gate_chi2`` of the prediction (its noise scaled as the re-entries have
+shown) is not fused: the odometry has left its model there (a gyro bias the yaw-rate search has
+not found yet), and the pose is the pose cells' (the paper's re-entry); a point between the two
+explains neither, and its link stays wrong once the bias is taken out of the map.
 
 Loop-closure sequence (``experience_map.loop_closure_sequence``, on by default; not in the paper):
 a re-entry that the map's links already lead to from the current experience (within the path
@@ -505,8 +509,11 @@ class ExperienceMap:
         self._innovations.add(nu, since_visit, self._view_cov)
         self._gate_scale.add(nu, since_visit, self._view_cov)
         self._gate_view = -2
-        if not self._innovations.trusted(self.config.reentry.odometry_trust_limit):
-            # the odometry has not shown that it keeps to its model: the pose cells alone
+        if not self._innovations.trusted(self.config.reentry.odometry_trust_limit) or self._beyond_model(
+            nu, scale * p_cov
+        ):
+            # the odometry has not shown that it keeps to its model, or errs here far beyond it
+            # (a gyro bias not yet found): the pose cells alone
             self._record_fix(self._view_cov, meas[2])
             return offset
         fused, cov = kalman_fuse(pred, scale * p_cov, nu, self._view_cov)
@@ -514,6 +521,12 @@ class ExperienceMap:
         c = self._exp.cols
         fx, fy, fth = _between((c["x"][j], c["y"][j], c["th"][j]), fused)
         return (fx, fy, _wrap_scalar(fth))
+
+    def _beyond_model(self, nu: np.ndarray, p_cov: np.ndarray) -> bool:
+        """Whether innovation ``nu`` lies beyond ``experience_map.odometry_gate_chi2`` (squared
+        Mahalanobis distance) of the prediction with covariance ``p_cov``, the view's added."""
+        d2 = float(nu @ np.linalg.solve(p_cov + self._view_cov, nu))
+        return d2 > self.config.experience_map.odometry_gate_chi2
 
     def _record_fix(self, cov: np.ndarray, heading: float) -> None:
         """Keep the re-entry's pose covariance for the next prediction (``reentry.chain_fixes``)."""
