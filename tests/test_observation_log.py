@@ -29,6 +29,16 @@ def test_log_without_ground_truth(tmp_path):
     assert log.scene_id.tolist() == [5, -1]
 
 
+def test_ground_truth_without_false_positive_labels_is_read_with_none_flagged(tmp_path):
+    """A user's log with a pose ground truth (motion capture, RTK) but no false-positive labels."""
+    path = tmp_path / "log.csv"
+    path.write_text(f"{HEADER},gt_x,gt_y,gt_theta\n0.1,0.1,0.3,0.0,5,0.03,0.0,0.0\n0.2,0.1,0.3,0.0,-1,0.06,0.0,0.0\n")
+    log = ObservationLog.read_csv(path)
+    assert log.has_ground_truth
+    np.testing.assert_array_equal(log.ground_truth()[:, 0], [0.03, 0.06])
+    assert log.false_positive is not None and not log.false_positive.any()
+
+
 @pytest.mark.parametrize(
     "text, expected",
     [
@@ -40,7 +50,8 @@ def test_log_without_ground_truth(tmp_path):
         (f"{HEADER}\n0.1,-0.1,0.3,0.0,5\n", "line 2, column dt: must be positive"),
         (f"{HEADER}\n0.1,0.1,0.3,0.0,-4\n", "line 2, column scene_id: must be >= -1"),
         (f"{HEADER},speed\n0.1,0.1,0.3,0.0,1,2\n", "header: unknown column 'speed'"),
-        (f"{HEADER},gt_x\n0.1,0.1,0.3,0.0,1,2\n", "ground-truth columns need all of"),
+        (f"{HEADER},gt_x\n0.1,0.1,0.3,0.0,1,2\n", "ground-truth columns need all of gt_x,gt_y,gt_theta"),
+        (f"{HEADER},false_positive\n0.1,0.1,0.3,0.0,1,0\n", "missing gt_x, gt_y, gt_theta"),
         (f"{HEADER}\n", "no observations"),
         (f"{HEADER}\n0.1,0.1,0.3,0.0,18446744073709551616\n", "column scene_id: beyond a 64-bit integer"),
         (f"{HEADER}\n0.1,0.1,0.3,0.0,1_0\n", "column scene_id: not an integer ('1_0')"),

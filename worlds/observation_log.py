@@ -1,9 +1,11 @@
 """The observation log: the CSV contract through which odometry and place labels enter SLAM.
 
 Header ``t,dt,v_trans,v_rot,scene_id`` and optionally the ground-truth columns
-``gt_x,gt_y,gt_theta,false_positive``. Reading validates columns, types, finite values and
-monotonic time, and reports a problem as one line naming the file, the line, the column and
-what is wrong (:class:`ObservationLogError`). Writing is atomic (temporary file, then rename).
+``gt_x,gt_y,gt_theta,false_positive`` (the pose's three together; ``false_positive`` may be left
+out, a log with ground truth then has no tick labelled a false positive). Reading validates
+columns, types, finite values and monotonic time, and reports a problem as one line naming the
+file, the line, the column and what is wrong (:class:`ObservationLogError`). Writing is atomic
+(temporary file, then rename).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from .files import atomic_write_text, read_text
 
 REQUIRED_COLUMNS = ("t", "dt", "v_trans", "v_rot", "scene_id")
 GROUND_TRUTH_COLUMNS = ("gt_x", "gt_y", "gt_theta", "false_positive")
+GROUND_TRUTH_POSE = GROUND_TRUTH_COLUMNS[:3]  # needed together; false_positive may be left out
 _INT_COLUMNS = {"scene_id", "false_positive"}
 SCENE_ID_MIN, SCENE_ID_MAX = -1, 2**63 - 1
 """Scene numbers are int64: -1 (no scene) up to 2**63 - 1."""
@@ -116,11 +119,11 @@ def _parse(path: Path, text: str) -> ObservationLog:
     if missing:
         raise ObservationLogError(f"{path}: header: missing column(s) {', '.join(missing)}")
     gt_present = [c for c in GROUND_TRUTH_COLUMNS if c in header]
-    if gt_present and len(gt_present) != len(GROUND_TRUTH_COLUMNS):
-        absent = [c for c in GROUND_TRUTH_COLUMNS if c not in header]
+    if gt_present and not all(c in header for c in GROUND_TRUTH_POSE):
+        absent = [c for c in GROUND_TRUTH_POSE if c not in header]
         raise ObservationLogError(
             f"{path}: header: ground-truth columns need all of "
-            f"{','.join(GROUND_TRUTH_COLUMNS)}; missing {', '.join(absent)}"
+            f"{','.join(GROUND_TRUTH_POSE)}; missing {', '.join(absent)}"
         )
     data = rows[1:]
     if not data:
@@ -134,6 +137,8 @@ def _parse(path: Path, text: str) -> ObservationLog:
             values[h][i] = _parse_cell(path, line, h, cell.strip())
     _check_semantics(path, values)
     fp = values.get("false_positive")
+    if fp is None and gt_present:
+        fp = np.zeros(len(data), dtype=np.int64)  # ground truth without labels: none flagged
     return ObservationLog(
         t=values["t"],
         dt=values["dt"],
