@@ -419,8 +419,7 @@ class ExperienceMap:
         (module doc, odometry gate); a refused scene's innovation goes into the gate's scale."""
         _, _, nu, since_visit = self._reentry_innovation(j, offset)
         gate = self._gate_scale
-        d2 = float(nu @ np.linalg.solve(gate.scale * since_visit + self._view_cov, nu))
-        if d2 <= self.config.experience_map.odometry_gate_chi2:
+        if not self._beyond_model(nu, gate.scale * since_visit):
             return False
         view = int(self._exp.cols["view"][j])
         if view != self._gate_view:  # one refused innovation per scene
