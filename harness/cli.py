@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import typing
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,9 @@ import numpy as np
 from worlds import InputError, list_worlds, load_world
 
 from .log_output import check_writable
+
+if typing.TYPE_CHECKING:
+    from .figure_run import RatSLAMChoice
 
 
 class CliError(InputError):
@@ -72,6 +76,7 @@ def _cmd_run(args) -> None:
         recorder_factory=None if args.no_recording else recorder_factory,
         workers=args.workers,
         config=config,
+        ratslam=_ratslam_choice(args.ratslam, config, "both"),
     )
     _print_run_summary(out)
 
@@ -88,8 +93,27 @@ def _cmd_replay(args) -> None:
         show_progress=not args.quiet,
         recorder_factory=None if args.no_recording else recorder_factory,
         config=config,
+        ratslam=_ratslam_choice(args.ratslam, config, "defaults"),
     )
     _print_run_summary(out)
+
+
+def _ratslam_choice(given: str | None, config, default: RatSLAMChoice) -> RatSLAMChoice:
+    """``--ratslam``: as given; else the configuration file's own when it names a preset (its
+    fields go on top of the preset, run alone), else ``default``."""
+    if given is not None:
+        return typing.cast(RatSLAMChoice, given)
+    return "defaults" if config is not None and config.preset is not None else default
+
+
+def _ratslam_option(parser, default: str) -> None:
+    parser.add_argument(
+        "--ratslam",
+        choices=("defaults", "published", "both"),
+        help="RatSLAM's configuration: the project's defaults, the paper's published algorithm "
+        f"(RatSLAMConfig.published()), or both on the same stream (default: {default}; a --config "
+        "file with a preset: that file's configuration)",
+    )
 
 
 def _cmd_import_plaza(args) -> None:
@@ -331,6 +355,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="processes for the figure's variants "
         "(default: one per variant, at most one per core; 1 = sequential, same output)",
     )
+    _ratslam_option(r, "both")
     r.add_argument("--quiet", action="store_true", help="no progress output")
     r.set_defaults(func=_cmd_run)
 
@@ -342,6 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="TOML file with [ratslam] and [gtsam] tables of config fields (a run's own config.toml reproduces it)",
     )
     rp.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
+    _ratslam_option(rp, "defaults")
     rp.add_argument("--quiet", action="store_true", help="no progress output")
     rp.set_defaults(func=_cmd_replay)
 

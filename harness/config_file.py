@@ -11,8 +11,10 @@ Each sub-config is a sub-table, e.g.::
     kind = "gnc"
 
 (TOML's dotted keys are the same thing: ``pose_cells.nx = 40`` under ``[ratslam]``). Fields not
-given keep the configuration they are applied to. Reading validates everything and reports a
-problem as one line naming the file, the table, the key and the problem
+given keep the configuration they are applied to. ``preset = "published"`` under ``[ratslam]``
+first puts RatSLAM at the paper's published algorithm (:meth:`ratslam.RatSLAMConfig.published`);
+the file's fields then go on top of it (one departure switched on over the paper, say).
+Reading validates everything and reports a problem as one line naming the file, the table, the key and the problem
 (:class:`ConfigFileError`), e.g. ``c.toml: [ratslam.pose_cells] nx: must be an integer >= 4,
 got 3``. Every run directory gets the effective configuration as ``config.toml``; feeding that
 file back (``replay LOG --config RUN/config.toml``) reproduces the run bit for bit, since floats
@@ -36,6 +38,22 @@ from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_text
 
 TABLES: dict[str, type] = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
+PRESETS = ("published",)  # RatSLAM presets a file (or a sweep's system) may name: RatSLAMConfig.<preset>()
+
+
+def read_preset(table: dict, at: str, fail: Callable[[str, str], NoReturn]) -> str | None:
+    """The ``preset`` key of a RatSLAM table (removed from it), checked; None if absent."""
+    if "preset" not in table:
+        return None
+    preset = table.pop("preset")
+    if preset not in PRESETS:
+        fail(f"{at} preset", f"expected one of {', '.join(repr(p) for p in PRESETS)}, got {preset!r}")
+    return preset
+
+
+def with_preset(config: RatSLAMConfig, preset: str | None) -> RatSLAMConfig:
+    """``config`` with the named preset applied (its scale fields kept); unchanged for None."""
+    return config if preset is None else getattr(RatSLAMConfig, preset)(config)
 
 
 class ConfigFileError(InputError):
@@ -56,9 +74,11 @@ class ConfigOverrides:
     ratslam: dict = field(default_factory=dict)
     gtsam: dict = field(default_factory=dict)
     source: str | None = None
+    preset: str | None = None  # RatSLAM's preset, applied before the file's values
 
     def apply(self, ratslam: RatSLAMConfig, gtsam: PoseGraphConfig) -> tuple[RatSLAMConfig, PoseGraphConfig]:
-        """The two configurations with the file's values on top (validated by the configs)."""
+        """The two configurations with the file's preset and values on top (validated by the configs)."""
+        ratslam = with_preset(ratslam, self.preset)
         return (self._replace("ratslam", ratslam, self.ratslam), self._replace("gtsam", gtsam, self.gtsam))
 
     def _replace(self, table: str, config, values: dict):
@@ -108,13 +128,19 @@ def read_config_file(path) -> ConfigOverrides:
         raise ConfigFileError(f"{path}: {where_}: {problem}")
 
     tables = {}
+    preset = None
     for table, values in raw.items():
         if table not in TABLES:
             fail(f"[{table}]", f"unknown table (expected {', '.join(f'[{t}]' for t in TABLES)})")
         if not isinstance(values, dict):
             fail(table, f"expected a table [{table}], got a {type(values).__name__}")
+        if table == "ratslam":
+            values = dict(values)
+            preset = read_preset(values, "[ratslam]", fail)
         tables[table] = read_config_table(TABLES[table], values, table, fail)
-    overrides = ConfigOverrides(ratslam=tables.get("ratslam", {}), gtsam=tables.get("gtsam", {}), source=str(path))
+    overrides = ConfigOverrides(
+        ratslam=tables.get("ratslam", {}), gtsam=tables.get("gtsam", {}), source=str(path), preset=preset
+    )
     overrides.apply(RatSLAMConfig(), PoseGraphConfig())  # values checked now, before any work
     return overrides
 

@@ -17,12 +17,13 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from baselines import PoseGraphConfig, YawBiasConfig
 from ratslam import PAPER_REENTRIES, PoseCellConfig, RatSLAMConfig
+from ratslam.published import departures
 from worlds import ObservationLog, World, load_world, simulate
 from worlds.errors import InputError
 from worlds.files import atomic_open, write_tum
@@ -90,6 +91,22 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
     }
     if log.has_ground_truth:
         maps["false_positive"] = log.false_positive
+    for name, trace in res.alternatives.items():  # other RatSLAM configurations, e.g. the published one
+        alt = trace.system
+        write_tum(traj / f"ratslam_{name}.tum", t, *trace.pose.T)
+        order = np.argsort(alt.experience_first_tick)
+        write_tum(
+            traj / f"ratslam_{name}_experiences.tum",
+            t[alt.experience_first_tick[order]],
+            *alt.experience_poses[order].T,
+        )
+        maps |= {
+            f"{name}_peak_cells": trace.peak_cells,
+            f"{name}_snapped": trace.snapped,
+            f"{name}_experience_poses": alt.experience_poses,
+            f"{name}_experience_first_tick": alt.experience_first_tick,
+            f"{name}_links": alt.links,
+        }
     with atomic_open(run_dir / "maps.npz", "wb") as f:
         np.savez_compressed(f, **maps)
 
@@ -144,6 +161,32 @@ def _variant_log(
     return simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
 
 
+RatSLAMChoice = Literal["defaults", "published", "both"]
+"""Which RatSLAM a run steps: the project's ``defaults``, the paper's algorithm (``published``:
+:meth:`ratslam.RatSLAMConfig.published`), or ``both`` on the same stream (the defaults primary)."""
+
+PUBLISHED = "published"
+
+
+def ratslam_settings(
+    rs_cfg: RatSLAMConfig, choice: RatSLAMChoice, derivation: str = ""
+) -> tuple[RatSLAMConfig, dict[str, RatSLAMConfig], str]:
+    """The run's RatSLAM configuration, the alternatives run beside it, and the derivation text
+    (which, for the published preset, names the values set by the log's derivation or a
+    configuration file that the preset's fixed values replace: none is overwritten silently)."""
+    if choice == "defaults":
+        return rs_cfg, {}, derivation
+    published = RatSLAMConfig.published(rs_cfg)
+    replaced = [d for d in departures(rs_cfg) if d not in departures(RatSLAMConfig())]
+    if replaced:
+        derivation = (derivation + "\n" if derivation else "") + (
+            "The published preset fixes the paper's values over those derived or given: " + "; ".join(replaced) + "."
+        )
+    if choice == "published":
+        return published, {}, derivation
+    return rs_cfg, {PUBLISHED: published}, derivation
+
+
 def _pool_context():
     """Worker start method: fork where available (no re-import, kernels already loaded)."""
     methods = multiprocessing.get_all_start_methods()
@@ -162,22 +205,47 @@ def run_single_stream(
     recorder_factory: RecorderFactory | None = None,
     closure_true_distance: float = CLOSURE_TRUE_DISTANCE,
     extra_metrics: ExtraMetrics | None = None,
-) -> VariantResult:
-    """One stream through both systems into ``run_dir``: its effective ``config.toml`` (headed by
-    ``config_header``), the recording (if a ``recorder_factory`` is given; removed if the run
-    fails), the TUM trajectories and maps.npz, and its metrics (with the ``extra_metrics`` of a
-    figure that has them; the caller adds the configuration record)."""
+    alternatives: dict[str, RatSLAMConfig] | None = None,
+) -> tuple[VariantResult, dict[str, VariantResult]]:
+    """One stream through both systems (and the ``alternatives``: name -> another RatSLAM
+    configuration, on the same stream in the same pass) into ``run_dir``: its effective
+    ``config.toml`` (headed by ``config_header``), the recording (if a ``recorder_factory`` is
+    given; removed if the run fails), the TUM trajectories and maps.npz, and its metrics (with the
+    ``extra_metrics`` of a figure that has them; the caller adds the configuration record): the
+    run's, and each alternative's measured the same way (the pose graph's metrics are shared)."""
+    alternatives = alternatives or {}
     write_config_toml(run_dir / "config.toml", ratslam_config, gtsam_config, config_header)
+    for name, config in alternatives.items():
+        write_config_toml(
+            run_dir / f"config_{name}.toml",
+            config,
+            gtsam_config,
+            config_header + f"\nRatSLAM here: the {name!r} configuration run beside it on the same stream.",
+        )
     odometry = dead_reckon(log)  # once: the runner and the recorder share it
     recorder = recorder_factory(run_dir, world, log, ratslam_config, odometry) if recorder_factory else None
     with recorder if recorder is not None else contextlib.nullcontext():
         on_tick = recorder.on_tick if recorder is not None else None
-        res = run_stream(log, ratslam_config, gtsam_config, on_tick=on_tick, progress=progress, odometry=odometry)
+        res = run_stream(
+            log,
+            ratslam_config,
+            gtsam_config,
+            on_tick=on_tick,
+            progress=progress,
+            odometry=odometry,
+            alternatives=alternatives,
+        )
     write_stream_outputs(run_dir, log, res)
-    result = evaluate_stream(res, log, closure_true_distance=closure_true_distance)
-    if extra_metrics is not None:
-        result = dataclasses.replace(result, extras=extra_metrics(res, log, ratslam_config))
-    return result
+
+    def measured(stream: StreamResult, config: RatSLAMConfig) -> VariantResult:
+        result = evaluate_stream(stream, log, closure_true_distance=closure_true_distance)
+        if extra_metrics is not None:
+            result = dataclasses.replace(result, extras=extra_metrics(stream, log, config))
+        return result
+
+    return measured(res, ratslam_config), {
+        name: measured(res.with_ratslam(name), config) for name, config in alternatives.items()
+    }
 
 
 def write_run(run_dir: Path, run: RunResult) -> None:
@@ -193,11 +261,13 @@ def _progress(log: ObservationLog, label: str, show: bool, redraw: bool | None =
 @dataclass(frozen=True)
 class VariantRun:
     """What one variant's run hands back to its figure: its metrics, the mean lap of a lap
-    world's run (None otherwise) and the duration of its stream."""
+    world's run (None otherwise), the duration of its stream, and the metrics of the other
+    RatSLAM configurations run beside it (e.g. ``published``)."""
 
     result: VariantResult
     lap_length_m: float | None
     duration_s: float
+    alternatives: dict[str, VariantResult] = dataclasses.field(default_factory=dict)
 
 
 def _run_variant(
@@ -211,13 +281,15 @@ def _run_variant(
     recorder_factory: RecorderFactory | None = None,
     config: ConfigOverrides | None = None,
     redraw: bool | None = None,
+    ratslam: RatSLAMChoice = "both",
 ) -> VariantRun:
     world = _variant_world(world, variant)
     log = _variant_log(fig, variant, world, duration, seed)
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
-    result = run_single_stream(
+    rs_cfg, alternatives, derivation = ratslam_settings(rs_cfg, ratslam, derivation)
+    result, alt_results = run_single_stream(
         run_dir,
         log,
         rs_cfg,
@@ -230,25 +302,34 @@ def _run_variant(
         recorder_factory=recorder_factory,
         closure_true_distance=1.5 * _scene_cell_size(fig, world),
         extra_metrics=fig.extra_metrics,
+        alternatives=alternatives,
     )
-    result = dataclasses.replace(
-        result,
-        config=VariantConfig(
-            ratslam=dataclasses.asdict(rs_cfg),
-            gtsam=dataclasses.asdict(pg_cfg),
-            odometric_bias_deg_s=variant.odometric_bias,
-            pi_bias_deg_s=variant.pi_bias,
-            wheel_errors=dict(PLAZA_WHEEL_ERRORS) if variant.wheel_errors else None,
-        ),
-        derived_scale=derivation or None,
-    )
+
+    def recorded(r: VariantResult, cfg: RatSLAMConfig) -> VariantResult:
+        return dataclasses.replace(
+            r,
+            config=VariantConfig(
+                ratslam=dataclasses.asdict(cfg),
+                gtsam=dataclasses.asdict(pg_cfg),
+                odometric_bias_deg_s=variant.odometric_bias,
+                pi_bias_deg_s=variant.pi_bias,
+                wheel_errors=dict(PLAZA_WHEEL_ERRORS) if variant.wheel_errors else None,
+            ),
+            derived_scale=derivation or None,
+        )
+
     lap = lap_length(world, log.ground_truth()) if world is not None else None
-    return VariantRun(result, lap, log.duration)
+    return VariantRun(
+        recorded(result, rs_cfg),
+        lap,
+        log.duration,
+        {name: recorded(r, alternatives[name]) for name, r in alt_results.items()},
+    )
 
 
 def _variant_job(args) -> VariantRun:
     """One variant in a worker process (progress as plain lines: several bars would clash)."""
-    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config = args
+    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam = args
     return _run_variant(
         run_dir,
         get_figure(fig_name),
@@ -260,6 +341,7 @@ def _variant_job(args) -> VariantRun:
         recorder_factory,
         config,
         redraw=False,
+        ratslam=ratslam,
     )
 
 
@@ -279,10 +361,13 @@ def run_figure(
     variants: tuple[str, ...] | None = None,
     workers: int | None = None,
     config: ConfigOverrides | None = None,
+    ratslam: RatSLAMChoice = "both",
 ) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
     always runs) into ``out`` (default ``reports/<name>``). ``config`` (from a configuration
-    file) is applied on top of each variant's own configuration.
+    file) is applied on top of each variant's own configuration. ``ratslam``: the project's
+    defaults, the published algorithm, or both on each variant's stream (the default; the claims
+    are judged for each, the published run's under ``published`` in metrics.json).
 
     The variants are independent runs: with ``workers`` > 1 (default: one process per variant,
     at most one per core) they run in parallel processes; each is deterministic, so the output
@@ -305,14 +390,18 @@ def run_figure(
         for i, variant in enumerate(fig.variants):
             vdir = stage if i == 0 else stage / "variants" / variant.name
             vdir.mkdir(parents=True, exist_ok=True)
-            jobs.append((vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory, config))
+            jobs.append(
+                (vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam)
+            )
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
             with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_pool_context()) as pool:
                 runs = list(pool.map(_variant_job, jobs))
         else:
             runs = [
-                _run_variant(vdir, fig, variant, world, duration, seed, show_progress, recorder_factory, config)
+                _run_variant(
+                    vdir, fig, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam=ratslam
+                )
                 for vdir, _, variant, *_ in jobs
             ]
         primary = runs[0]
@@ -327,10 +416,19 @@ def run_figure(
             variants={v.name: r.result for v, r in zip(fig.variants, runs)},
             extras=primary.result.extras,
         )
+        published = None
+        if ratslam == "both":
+            published = dataclasses.replace(
+                run,
+                variants={v.name: r.alternatives[PUBLISHED] for v, r in zip(fig.variants, runs)},
+                extras=primary.alternatives[PUBLISHED].extras,
+            )
+            published = dataclasses.replace(published, claims=evaluate_claims(fig, published))
         run = dataclasses.replace(
             run,
             claims=evaluate_claims(fig, run),
-            provenance=provenance(figure=fig.name, seed=seed, duration_s=duration),
+            provenance=provenance(figure=fig.name, seed=seed, duration_s=duration, ratslam=ratslam),
+            published=published,
         )
         write_run(stage, run)
     return out
@@ -358,11 +456,13 @@ def replay(
     ratslam_config: RatSLAMConfig | None = None,
     gtsam_config: PoseGraphConfig | None = None,
     config: ConfigOverrides | None = None,
+    ratslam: RatSLAMChoice = "defaults",
 ) -> Path:
     """Replay a user's observation log through both systems into run directory ``out``
     (``config``, from a configuration file, on top of the given configurations or, where none is
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
-    and labels; the simulator's own streams get exactly the defaults)."""
+    and labels; the simulator's own streams get exactly the defaults). ``ratslam``: the project's
+    defaults (the default), the published algorithm, or both on the same stream."""
     log = ObservationLog.read_csv(log_path)
     name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
@@ -373,9 +473,10 @@ def replay(
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+    rs_cfg, alternatives, derivation = ratslam_settings(rs_cfg, ratslam, derivation)
     out = Path(out)
     with staged_directory(out, (Path(log_path), *_inputs(config))) as stage, _named(log_path):
-        result = run_single_stream(
+        result, alt_results = run_single_stream(
             stage,
             log,
             rs_cfg,
@@ -385,19 +486,30 @@ def replay(
             f"Reproduce: ratslam-harness replay {name} --config config.toml",
             progress=_progress(log, f"replay {name}", show_progress),
             recorder_factory=recorder_factory,
+            alternatives=alternatives,
         )
-        result = dataclasses.replace(
-            result,
-            config=VariantConfig(ratslam=dataclasses.asdict(rs_cfg), gtsam=dataclasses.asdict(pg_cfg)),
-            derived_scale=derivation,
-        )
+
+        def recorded(r: VariantResult, cfg: RatSLAMConfig) -> VariantResult:
+            return dataclasses.replace(
+                r,
+                config=VariantConfig(ratslam=dataclasses.asdict(cfg), gtsam=dataclasses.asdict(pg_cfg)),
+                derived_scale=derivation,
+            )
+
         run = RunResult(
             figure=None,
             title=f"replay of {name}",
             log=str(log_path),
             duration_s=log.duration,
-            variants={"replay": result},
-            provenance=provenance(log=str(log_path)),
+            variants={"replay": recorded(result, rs_cfg)},
+            provenance=provenance(log=str(log_path), ratslam=ratslam),
         )
+        if PUBLISHED in alt_results:
+            run = dataclasses.replace(
+                run,
+                published=dataclasses.replace(
+                    run, variants={"replay": recorded(alt_results[PUBLISHED], alternatives[PUBLISHED])}
+                ),
+            )
         write_run(stage, run)
     return out

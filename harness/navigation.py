@@ -74,6 +74,7 @@ from worlds.drive import Drive
 
 from .nav_controller import ControllerParams, RouteController
 from .nav_goals import draw_goal_ticks, route_network_distance
+from .stream import step_stream
 
 SYSTEMS = ("ratslam", "gtsam")
 GOAL_SEPARATION_M = 3.0
@@ -317,18 +318,19 @@ def run_navigation(
     anchors: dict[str, dict[int, tuple[int, tuple[float, float, float]]]] = {s: {} for s in systems}
     wanted = set(goal_ticks.tolist())
     hooks.exploration_started(world, log)
-    report_every = max(1, len(log) // 100)
-    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
-    for k, (dt, v, w, scene) in enumerate(rows):
-        for s in systems:
-            navs[s].step(dt, v, w, scene)
-            if k in wanted:
+
+    def at_tick(k: int, stepped) -> None:
+        if k in wanted:
+            for s in systems:
                 node = navs[s].current_node
                 rel = _relative(navs[s].node_pose(node), navs[s].pose) if node >= 0 else (0.0, 0.0, 0.0)
                 anchors[s][k] = (node, rel)
         hooks.exploration_tick(k, navs)
-        if progress is not None and ((k + 1) % report_every == 0 or k + 1 == len(log)):
-            progress("exploration", k + 1, len(log))
+
+    report = None if progress is None else (lambda done, total: progress("exploration", done, total))
+    step_stream(log, navs, on_tick=at_tick, progress=report, finalize=False)
+    if progress is not None:
+        progress("exploration", len(log), len(log))
     hooks.explored(navs)
     seen = log.scene_id[np.sort(np.unique(log.scene_id, return_index=True)[1])]
 

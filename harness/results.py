@@ -311,7 +311,9 @@ class RunResult:
     ``world`` or a ``real_log``; seed, false-positive rate, variants, claims) or a replay's
     (``figure`` None; ``title`` and ``log`` name it). ``extras`` repeats the primary variant's
     figure-specific metrics at the top level; ``provenance`` is free-form
-    (:func:`harness.run_dir.provenance`)."""
+    (:func:`harness.run_dir.provenance`). ``published``: the same run with RatSLAM as published
+    (:meth:`ratslam.RatSLAMConfig.published`) on the same streams, its variants' metrics (the
+    pose graph's are the same run's) and its claims; None when it was not run."""
 
     figure: FigureInfo | None
     variants: dict[str, VariantResult]
@@ -326,6 +328,7 @@ class RunResult:
     claims: list[ClaimResult] | None = None
     title: str | None = None  # a replay's
     log: str | None = None  # a replay's observation log
+    published: RunResult | None = None  # the same streams with RatSLAM as published (its own claims)
 
     @property
     def primary(self) -> VariantResult:
@@ -364,7 +367,17 @@ class RunResult:
         out.update(self.extras)
         if self.claims is not None:
             out["claims"] = [dataclasses.asdict(c) for c in self.claims]
+        if self.published is not None:
+            out["published"] = self.published._alternative_json()
         out["provenance"] = self.provenance
+        return out
+
+    def _alternative_json(self) -> dict[str, Any]:
+        """What an alternative RatSLAM's run adds to its parent's document: variants, extras, claims."""
+        out: dict[str, Any] = {"variants": {name: v.to_json() for name, v in self.variants.items()}}
+        out.update(self.extras)
+        if self.claims is not None:
+            out["claims"] = [dataclasses.asdict(c) for c in self.claims]
         return out
 
     def write(self, path) -> Path:
@@ -377,7 +390,8 @@ class RunResult:
         doc = dict(doc)
         figure, world = doc.pop("figure"), doc.pop("world", None)
         claims = doc.pop("claims", None)
-        return cls(
+        published = doc.pop("published", None)
+        run = cls(
             figure=None if figure is None else FigureInfo(**figure),
             variants={name: VariantResult.from_json(v) for name, v in doc.pop("variants").items()},
             duration_s=doc.pop("duration_s", None),
@@ -392,6 +406,17 @@ class RunResult:
             log=doc.pop("log", None),
             extras=doc,
         )
+        if published is None:
+            return run
+        published = dict(published)
+        alt_claims = published.pop("claims", None)
+        alternative = dataclasses.replace(
+            run,
+            variants={name: VariantResult.from_json(v) for name, v in published.pop("variants").items()},
+            claims=None if alt_claims is None else [ClaimResult(**c) for c in alt_claims],
+            extras=published,
+        )
+        return dataclasses.replace(run, published=alternative)
 
     @classmethod
     def from_json(cls, path) -> RunResult:

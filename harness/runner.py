@@ -1,28 +1,25 @@
-"""Drive RatSLAM and the GTSAM baseline on the same observation stream, tick by tick.
+"""RatSLAM and the GTSAM baseline (and other RatSLAM configurations) on one observation stream.
 
-The runner hands both systems exactly the same inputs (``dt, v_trans, v_rot, scene_id``) and
-never any ground truth; it collects what the metrics, plots and recording need.
+Built on the one stream loop (:func:`harness.stream.step_stream`): every system gets exactly
+the same inputs (``dt, v_trans, v_rot, scene_id``) and never any ground truth; this module
+collects what a figure's or a replay's metrics, plots and recording need.
 """
 
 from __future__ import annotations
 
-import time
+import dataclasses
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from ratslam import RatSLAM, RatSLAMConfig
 from worlds import ObservationLog
-from worlds.errors import InputError
 
+from .stream import TickError, Trace, step_stream
 
-class TickError(InputError):
-    """A tick of the log that a SLAM system refuses (one line: the tick and the problem)."""
-
-    def __init__(self, tick: int, problem: str):
-        super().__init__(f"tick {tick} (line {tick + 2} of the log): {problem}")
-        self.tick, self.problem = tick, problem
+__all__ = ["StreamResult", "TickError", "dead_reckon", "run_stream"]
 
 
 def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -44,7 +41,8 @@ def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
 
 @dataclass
 class StreamResult:
-    """Per-tick estimates and final maps of both systems on one stream."""
+    """Per-tick estimates and final maps of both systems on one stream; ``alternatives``: other
+    RatSLAM configurations stepped on the same stream (e.g. the published preset), by name."""
 
     t: np.ndarray
     odometry: np.ndarray  # (N, 3) dead reckoning
@@ -56,6 +54,27 @@ class StreamResult:
     ratslam: RatSLAM
     gtsam: PoseGraphSLAM
     wall: dict = field(default_factory=dict)  # seconds per system
+    alternatives: dict[str, Trace] = field(default_factory=dict)
+
+    def with_ratslam(self, name: str) -> StreamResult:
+        """The same stream's result with the alternative RatSLAM ``name`` in RatSLAM's place (the
+        pose graph's and the odometry's unchanged), so that every metric of RatSLAM is measured
+        the same way for each configuration."""
+        trace = self.alternatives[name]
+        assert trace.peak_cells is not None and trace.peak_metres is not None and trace.snapped is not None
+        return dataclasses.replace(
+            self,
+            ratslam_pose=trace.pose,
+            peak_cells=trace.peak_cells,
+            peak_metres=trace.peak_metres,
+            snapped=trace.snapped,
+            ratslam=trace.system,
+            wall={**self.wall, "ratslam_s": trace.wall_s},
+            alternatives={},
+        )
+
+
+RATSLAM, GTSAM = "ratslam", "gtsam"
 
 
 def run_stream(
@@ -65,50 +84,37 @@ def run_stream(
     on_tick=None,
     progress=None,
     odometry: np.ndarray | None = None,
+    alternatives: dict[str, RatSLAMConfig] | None = None,
 ) -> StreamResult:
-    """Run both systems over ``log``; ``on_tick(k, ratslam, gtsam)`` (e.g. the recorder) sees every
-    tick. ``odometry`` is :func:`dead_reckon` of ``log`` when the caller already has it (the
-    recorder draws it too); otherwise it is computed here."""
-    rs = RatSLAM(ratslam_config or RatSLAMConfig())
-    pg = PoseGraphSLAM(gtsam_config or PoseGraphConfig())
-    n = len(log)
+    """Run RatSLAM, the pose graph and any ``alternatives`` (name -> another RatSLAM
+    configuration) over ``log`` in one pass of :func:`harness.stream.step_stream`;
+    ``on_tick(k, ratslam, gtsam)`` (e.g. the recorder) sees every tick. ``odometry`` is
+    :func:`dead_reckon` of ``log`` when the caller already has it (the recorder draws it too);
+    otherwise it is computed here."""
+    systems: dict[str, Any] = {
+        RATSLAM: RatSLAM(ratslam_config or RatSLAMConfig()),
+        GTSAM: PoseGraphSLAM(gtsam_config or PoseGraphConfig()),
+    }
+    for name, config in (alternatives or {}).items():
+        if name in systems:
+            raise ValueError(f"alternative RatSLAM named {name!r}: the name is taken")
+        systems[name] = RatSLAM(config)
     if odometry is None:
         odometry = dead_reckon(log)
-    out = {k: np.zeros((n, 3)) for k in ("ratslam_pose", "peak_cells", "peak_metres", "gtsam_pose")}
-    snapped = np.zeros(n, dtype=bool)
-    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
-    t_rs = t_pg = t_rec = 0.0
-    clock = time.perf_counter
-    report_every = max(1, n // 200)
-    for k, (dt, v, w, scene) in enumerate(rows):
-        t0 = clock()
-        try:
-            rs.step(dt, v, w, scene)
-            t1 = clock()
-            pg.step(dt, v, w, scene)
-        except ValueError as e:
-            raise TickError(k, str(e)) from None
-        t2 = clock()
-        out["ratslam_pose"][k] = rs.pose
-        out["peak_cells"][k] = rs.peak
-        out["peak_metres"][k] = rs.peak_metres
-        snapped[k] = rs.snapped
-        out["gtsam_pose"][k] = pg.pose
-        if on_tick is not None:
-            on_tick(k, rs, pg)
-        t3 = clock()
-        t_rs, t_pg, t_rec = t_rs + (t1 - t0), t_pg + (t2 - t1), t_rec + (t3 - t2)
-        if progress is not None and (k + 1) % report_every == 0:
-            progress(k + 1, n)
-    t0 = clock()
-    pg.finalize()
-    t_pg += clock() - t0
+    tick_hook = None if on_tick is None else (lambda k, s: on_tick(k, s[RATSLAM], s[GTSAM]))
+    traces, other_s = step_stream(log, systems, on_tick=tick_hook, progress=progress)
+    rs, pg = traces.pop(RATSLAM), traces.pop(GTSAM)
+    assert rs.peak_cells is not None and rs.peak_metres is not None and rs.snapped is not None
     return StreamResult(
         t=log.t,
         odometry=odometry,
-        snapped=snapped,
-        ratslam=rs,
-        gtsam=pg,
-        wall={"ratslam_s": t_rs, "gtsam_s": t_pg, "recording_and_bookkeeping_s": t_rec},
-        **out,
+        ratslam_pose=rs.pose,
+        peak_cells=rs.peak_cells,
+        peak_metres=rs.peak_metres,
+        snapped=rs.snapped,
+        gtsam_pose=pg.pose,
+        ratslam=rs.system,
+        gtsam=pg.system,
+        wall={"ratslam_s": rs.wall_s, "gtsam_s": pg.wall_s, "recording_and_bookkeeping_s": other_s},
+        alternatives=traces,
     )

@@ -45,6 +45,7 @@ _RESULT_SOURCES = (
     "harness/metrics.py",
     "harness/evaluate.py",
     "harness/runner.py",
+    "harness/stream.py",
 )
 
 

@@ -21,6 +21,9 @@ A spec is a TOML file::
     [systems.ratslam]             # a named system: "system" is "ratslam" or "gtsam", every
     system = "ratslam"            # other key a field of RatSLAMConfig / PoseGraphConfig
     experience_map.energy = "sum"
+    [systems.ratslam_published]   # RatSLAM as published (RatSLAMConfig.published()),
+    system = "ratslam"            # the fields given going on top of it
+    preset = "published"
     [systems.gtsam_gnc]
     system = "gtsam"
     backend.kind = "gnc"
@@ -53,7 +56,7 @@ from ratslam.config_fields import ConfigError, replace
 from worlds import load_world
 from worlds.errors import InputError
 
-from .config_file import read_config_table, read_toml, where
+from .config_file import read_config_table, read_preset, read_toml, where, with_preset
 
 SYSTEM_CONFIGS = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 DESIGNS = ("one-at-a-time", "grid")
@@ -246,8 +249,9 @@ def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
             _fail(path, f"{at} system", f'expected "ratslam" or "gtsam", got {kind!r}')
         cls = SYSTEM_CONFIGS[kind]
         values = {k: v for k, v in table.items() if k != "system"}
+        preset = read_preset(values, at, lambda at, problem: _fail(path, at, problem)) if kind == "ratslam" else None
         fields = read_config_table(cls, values, f"systems.{name}", lambda at, problem: _fail(path, at, problem))
-        config = cls()
+        config = with_preset(cls(), preset) if kind == "ratslam" else cls()
         if kind == "ratslam" and grid is not None:
             pose_cells = {"nx": grid[0], "ny": grid[1], "n_theta": grid[2], **fields.get("pose_cells", {})}
             fields = {**fields, "pose_cells": pose_cells}

@@ -1,7 +1,6 @@
 """RatSLAM with experience mapping (Milford, Prasser & Wyeth, ACRA 2005)."""
 
 from .config import (
-    PAPER_REENTRIES,
     ExperienceMapConfig,
     LocalViewConfig,
     PoseCellConfig,
@@ -10,6 +9,7 @@ from .config import (
     YawBiasConfig,
 )
 from .pipeline import RatSLAM
+from .published import PAPER_REENTRIES
 
 __all__ = [
     "PAPER_REENTRIES",

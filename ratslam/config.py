@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 from .config_fields import ConfigError, check_fields, param, replace
+from .published import published_changes
 
 Energy = Literal["sum", "product"]
 Correction = Literal["stable", "printed"]
@@ -226,14 +227,6 @@ class YawBiasConfig:
         check_fields(self)
 
 
-# The paper's re-entries: wherever the pose cells say (no fusion with the odometry, no bound on
-# how far a view may move the robot, one view enough to close a loop). ``RatSLAMConfig().replace(**PAPER_REENTRIES)``.
-PAPER_REENTRIES: dict[str, dict[str, Any]] = {
-    "experience_map": {"relocalise_path_bound": False, "loop_closure_sequence": False},
-    "reentry": {"position_sigma_m": 0.0, "heading_sigma_deg": 0.0},
-}
-
-
 @dataclass(frozen=True)
 class RatSLAMConfig:
     """All RatSLAM parameters, with the defaults used for the paper's figures (see the sub-configs
@@ -252,6 +245,14 @@ class RatSLAMConfig:
     def shape(self) -> tuple[int, int, int]:
         """Pose-cell grid shape (nx, ny, n_theta)."""
         return self.pose_cells.shape
+
+    @classmethod
+    def published(cls, base: RatSLAMConfig | None = None) -> RatSLAMConfig:
+        """RatSLAM as published: every field at the paper's value or, where the paper is silent
+        or its printed form cannot run, at the stated reading (:data:`ratslam.published.PUBLISHED`).
+        The fields that size the network for a robot and environment (grid, cell size) and a
+        figure's path-integration bias are kept from ``base`` (default: the defaults)."""
+        return (base if base is not None else cls()).replace(**published_changes())
 
     def replace(self, **changes: Any) -> RatSLAMConfig:
         """A copy with some sub-configs changed (validated); a sub-config may be given whole or as

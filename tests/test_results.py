@@ -195,8 +195,9 @@ def test_extra_metrics_hook(tmp_path, monkeypatch):
     monkeypatch.setitem(F.FIGURES, fig.name, fig)
     out = run_figure(fig.name, out=tmp_path / "run", duration=30.0, show_progress=False, workers=1)
     doc = json.loads((out / "metrics.json").read_text())
-    assert seen == [210, 210]
+    assert seen == [210] * 4  # each variant's stream, RatSLAM's defaults and the published preset
     assert doc["laps"] == {"count": 2, "ticks": 210} == doc["variants"]["biased"]["laps"]
+    assert doc["published"]["laps"] == doc["laps"] and doc["published"]["claims"][0]["held"]
     assert list(doc).index("laps") == list(doc).index("variants") + 1
     assert doc["claims"][0]["measured"] == "2 laps" and doc["claims"][0]["held"]
     assert RunResult.from_json(out / "metrics.json").variant("biased").extras == {"laps": doc["laps"]}

@@ -1,0 +1,125 @@
+"""The one stream loop: any set of SLAM systems stepped through an observation log, tick by tick.
+
+Every system gets exactly the same inputs, ``step(dt, v_trans, v_rot, scene_id)`` per tick (the
+step contract), and never any ground truth. Figures, replays, sweeps and navigation's exploration
+all step their systems through :func:`step_stream`; what each needs afterwards is in the returned
+:class:`Trace` of each system: the online pose at every tick, the wall time spent in the system,
+and, for a system with pose cells (RatSLAM), the peak and snaps at every tick.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from worlds import ObservationLog
+from worlds.errors import InputError
+
+
+class TickError(InputError):
+    """A tick of the log that a SLAM system refuses (one line: the tick and the problem)."""
+
+    def __init__(self, tick: int, problem: str):
+        super().__init__(f"tick {tick} (line {tick + 2} of the log): {problem}")
+        self.tick, self.problem = tick, problem
+
+
+class Stepper(Protocol):
+    """What the loop needs of a system: the step contract and its current pose."""
+
+    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None: ...
+
+    @property
+    def pose(self) -> tuple[float, float, float]: ...
+
+
+@dataclass
+class Trace:
+    """One system's run over a stream. ``pose`` (N, 3): its online estimate after each tick;
+    ``wall_s``: seconds spent in its steps (and its ``finalize``); for a system with pose cells,
+    ``peak_cells`` / ``peak_metres`` (N, 3) and ``snapped`` (N,) after each tick, else None."""
+
+    system: Any
+    pose: np.ndarray
+    wall_s: float
+    peak_cells: np.ndarray | None = None
+    peak_metres: np.ndarray | None = None
+    snapped: np.ndarray | None = None
+
+
+OnTick = Callable[[int, Mapping[str, Any]], None]
+"""``on_tick(k, systems)``: called after every system has taken tick ``k`` (a recorder, a
+navigation experiment's bookkeeping)."""
+
+
+def _has_pose_cells(system: Any) -> bool:
+    return hasattr(system, "peak_metres") and hasattr(system, "snapped")
+
+
+def step_stream(
+    log: ObservationLog,
+    systems: Mapping[str, Stepper],
+    *,
+    on_tick: OnTick | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    finalize: bool = True,
+) -> tuple[dict[str, Trace], float]:
+    """Step every system of ``systems`` (name -> system) through ``log``, in the mapping's order
+    within each tick. ``on_tick`` sees every tick; ``progress(done, total)`` is called about 200
+    times; ``finalize``: a system with a ``finalize`` method (the pose graph's last optimisation)
+    has it called after the last tick. A tick a system refuses (a ``ValueError``) is a
+    :class:`TickError` naming the tick. Returns each system's :class:`Trace` and the seconds spent
+    outside the systems (``on_tick`` and bookkeeping)."""
+    n = len(log)
+    names = list(systems)
+    stepping = [systems[s] for s in names]
+    poses = [np.zeros((n, 3)) for _ in names]
+    cells = [
+        (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, dtype=bool)) if _has_pose_cells(s) else None for s in stepping
+    ]
+    wall = [0.0] * len(names)
+    other = 0.0
+    clock = time.perf_counter
+    report_every = max(1, n // 200)
+    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
+    for k, (dt, v, w, scene) in enumerate(rows):
+        for i, system in enumerate(stepping):
+            t0 = clock()
+            try:
+                system.step(dt, v, w, scene)
+            except ValueError as e:
+                raise TickError(k, str(e)) from None
+            wall[i] += clock() - t0
+        t0 = clock()
+        for i, system in enumerate(stepping):
+            poses[i][k] = system.pose
+            peak = cells[i]
+            if peak is not None:
+                peak[0][k] = system.peak  # type: ignore[attr-defined]
+                peak[1][k] = system.peak_metres  # type: ignore[attr-defined]
+                peak[2][k] = system.snapped  # type: ignore[attr-defined]
+        if on_tick is not None:
+            on_tick(k, systems)
+        if progress is not None and (k + 1) % report_every == 0:
+            progress(k + 1, n)
+        other += clock() - t0
+    if finalize:
+        for i, system in enumerate(stepping):
+            if hasattr(system, "finalize"):
+                t0 = clock()
+                system.finalize()
+                wall[i] += clock() - t0
+    traces = {}
+    for i, name in enumerate(names):
+        peak = cells[i]
+        traces[name] = Trace(
+            stepping[i],
+            poses[i],
+            wall[i],
+            *(peak if peak is not None else (None, None, None)),
+        )
+    return traces, other
