@@ -102,7 +102,7 @@ def _ratslam_choice(given: str | None, config, default: RatSLAMChoice) -> RatSLA
     """``--ratslam``: as given; else the configuration file's own when it names a preset (its
     fields go on top of the preset, run alone), else ``default``."""
     if given is not None:
-        return typing.cast(RatSLAMChoice, given)
+        return typing.cast("RatSLAMChoice", given)
     return "defaults" if config is not None and config.preset is not None else default
 
 
@@ -241,8 +241,12 @@ def _print_run_summary(out: Path) -> None:
     from .results import RunResult
 
     run = RunResult.from_json(out / "metrics.json")
+    published = {c.key: c for c in (run.published.claims or [])} if run.published is not None else {}
     for c in run.claims or []:
         print(f"  [{'held' if c.held else 'NOT held'}] {c.statement} -- {c.measured}")
+        if c.key in published:
+            p = published[c.key]
+            print(f"      as published: [{'held' if p.held else 'NOT held'}] {p.measured}")
     print(f"run directory: {out}")
     print(f"  report:    {out / 'report.md'}")
     rrd = out / "recording.rrd"

@@ -69,7 +69,7 @@ def panel_world(world: World | None, gt: np.ndarray, odometry: np.ndarray, fp_xy
     return save_figure(fig, path)
 
 
-def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, path):
+def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, path, system: str = "RatSLAM"):
     """(b) Pose-cell peak path in (x', y') cells; jumps (snaps, wrap-arounds) as thin lines."""
     nx, ny = grid_shape[:2]
     fig, ax = plt.subplots(figsize=(6.0, 6.0 * ny / nx + 0.4))
@@ -91,15 +91,31 @@ def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, pa
     ax.set_aspect("equal")
     ax.set_xlabel("x' (cells)")
     ax.set_ylabel("y' (cells)")
-    ax.set_title("(b) pose-cell peak path (4 x 4-cell grid)", fontsize=10)
+    ax.set_title(f"(b) {system}: pose-cell peak path (4 x 4-cell grid)", fontsize=10)
     ax.legend(loc="upper right", fontsize=7)
     return save_figure(fig, path)
 
 
-def panel_experience_map(world: World | None, exp_xy: np.ndarray, exp_gt_xy: np.ndarray, links: np.ndarray, path):
-    """(c) Experience map: experiences (dots) and transitions (lines), aligned to ground truth."""
+def panel_experience_map(
+    world: World | None,
+    exp_xy: np.ndarray,
+    exp_gt_xy: np.ndarray,
+    links: np.ndarray,
+    path,
+    system: str = "RatSLAM",
+    gt_xy: np.ndarray | None = None,
+):
+    """(c) Experience map: experiences (dots) and transitions (lines), aligned to ground truth,
+    on a 1 m grid, with the ground-truth path ``gt_xy`` (if given) beneath it in grey."""
     xy = aligned(exp_xy, exp_gt_xy)
-    fig, ax = _world_axes(world, "(c) experience map (aligned to ground truth)", np.vstack([xy, exp_gt_xy]))
+    fig, ax = _world_axes(world, f"(c) {system}: experience map (aligned, 1 m grid)", np.vstack([xy, exp_gt_xy]))
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    ax.set_xticks(np.arange(np.floor(x0), np.ceil(x1) + 1, 1.0), minor=True)
+    ax.set_yticks(np.arange(np.floor(y0), np.ceil(y1) + 1, 1.0), minor=True)
+    ax.grid(True, which="minor", lw=0.3, color="0.85")
+    if gt_xy is not None:
+        ax.plot(gt_xy[:, 0], gt_xy[:, 1], color="0.6", lw=0.5, alpha=0.6, label="ground truth")
     if len(links):
         ax.add_collection(LineCollection(xy[links], colors="tab:green", linewidths=0.5, alpha=0.7))
     ax.plot(xy[:, 0], xy[:, 1], ".", color="tab:green", ms=2.5, label=f"{len(xy)} experiences")

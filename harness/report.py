@@ -16,7 +16,9 @@ from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_tum
 
 from . import plots
-from .results import RunResult, VariantResult
+from .results import ClaimResult, RunResult, VariantResult
+
+PUBLISHED = "published"  # the alternative RatSLAM run beside the defaults (harness.figure_run)
 
 PANELS = ("a_world.png", "b_pose_cells.png", "c_experience_map.png", "d_gtsam.png")
 
@@ -32,13 +34,7 @@ def _load(run_dir: Path, run: RunResult | None) -> tuple[RunResult, dict[str, np
             raise ReportError(f"{p}: missing (not a complete run directory)")
     if run is None:
         run = RunResult.from_json(metrics_path)
-    if run.primary.has_ground_truth and not (run_dir / "trajectories" / "ground_truth.tum").exists():
-        raise ReportError(f"{run_dir / 'trajectories' / 'ground_truth.tum'}: missing (not a complete run directory)")
-    try:
-        maps = dict(np.load(maps_path))
-    except (OSError, ValueError, zipfile.BadZipFile) as e:
-        raise ReportError(f"{maps_path}: cannot be read ({e})") from None
-    return run, maps
+    return run, _maps(maps_path)
 
 
 def _poses(path: Path) -> np.ndarray:
@@ -51,27 +47,73 @@ def _poses(path: Path) -> np.ndarray:
         raise ReportError(str(e)) from None
 
 
+def _variant_dirs(run_dir: Path, run: RunResult) -> list[Path]:
+    """The directory of every variant whose run is in ``run_dir`` (the primary's is ``run_dir``)."""
+    dirs = [run_dir if i == 0 else run_dir / "variants" / name for i, name in enumerate(run.variants)]
+    return [d for d in dirs if (d / "maps.npz").exists()]
+
+
+def _maps(path: Path) -> dict[str, np.ndarray]:
+    try:
+        return dict(np.load(path))
+    except (OSError, ValueError, zipfile.BadZipFile) as e:
+        raise ReportError(f"{path}: cannot be read ({e})") from None
+
+
 def write_panels(run_dir: Path, run: RunResult, maps: dict[str, np.ndarray]) -> list[Path]:
-    """The four PNG panels of the primary variant (none without ground truth)."""
+    """The PNG panels of every variant (none without ground truth): the world, and for RatSLAM's
+    defaults and, where it ran, the published preset, the paper's figure pair, (a) the pose-cell
+    peak path with snaps and (b) the experience map with ground truth; and the pose graph. The
+    primary variant's are in ``run_dir``, the others' in their variant directories."""
     world = load_world(run.world.file) if run.world is not None and run.world.file else None
-    traj = run_dir / "trajectories"
+    out = []
+    for vdir in _variant_dirs(run_dir, run):
+        out += _variant_panels(vdir, world, maps if vdir == run_dir else _maps(vdir / "maps.npz"))
+    return out
+
+
+def _references(vdir: Path, maps: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray] | None:
+    """Ground truth and odometry of a variant's run: from maps.npz, or from the TUM files of a
+    run directory written before maps.npz held them (None without ground truth)."""
+    if "ground_truth" in maps:
+        return maps["ground_truth"], maps["odometry"]
+    traj = vdir / "trajectories"
     if not (traj / "ground_truth.tum").exists():
+        return None
+    return _poses(traj / "ground_truth.tum"), _poses(traj / "odometry.tum")
+
+
+def _variant_panels(vdir: Path, world, maps: dict[str, np.ndarray]) -> list[Path]:
+    references = _references(vdir, maps)
+    if references is None or len(references[0]) < 2:
         return []
-    gt = _poses(traj / "ground_truth.tum")
-    if len(gt) < 2:
-        return []
-    odo = _poses(traj / "odometry.tum")
+    gt, odo = references
     fp_xy = gt[maps["false_positive"].astype(bool), :2] if "false_positive" in maps else np.zeros((0, 2))
-    exp_ticks = maps["experience_first_tick"].astype(int)
-    out = [
-        plots.panel_world(world, gt, odo, fp_xy, run_dir / PANELS[0]),
-        plots.panel_pose_cells(
-            maps["peak_cells"], maps["snapped"].astype(bool), tuple(maps["grid_shape"]), run_dir / PANELS[1]
-        ),
-        plots.panel_experience_map(
-            world, maps["experience_poses"][:, :2], gt[exp_ticks, :2], maps["links"].astype(int), run_dir / PANELS[2]
-        ),
-    ]
+    out = [plots.panel_world(world, gt, odo, fp_xy, vdir / PANELS[0])]
+    grid = tuple(maps["grid_shape"])
+    for prefix, label in (("", "RatSLAM"), (f"{PUBLISHED}_", "RatSLAM as published")):
+        if f"{prefix}peak_cells" not in maps:
+            continue
+        suffix = f"_{PUBLISHED}" if prefix else ""
+        exp_ticks = maps[f"{prefix}experience_first_tick"].astype(int)
+        out += [
+            plots.panel_pose_cells(
+                maps[f"{prefix}peak_cells"],
+                maps[f"{prefix}snapped"].astype(bool),
+                grid,
+                vdir / f"b_pose_cells{suffix}.png",
+                label,
+            ),
+            plots.panel_experience_map(
+                world,
+                maps[f"{prefix}experience_poses"][:, :2],
+                gt[exp_ticks, :2],
+                maps[f"{prefix}links"].astype(int),
+                vdir / f"c_experience_map{suffix}.png",
+                label,
+                gt[:, :2],
+            ),
+        ]
     if "keyframe_poses" in maps and len(maps["keyframe_poses"]):
         kf_ticks = maps["keyframe_ticks"].astype(int)
         out.append(
@@ -81,7 +123,7 @@ def write_panels(run_dir: Path, run: RunResult, maps: dict[str, np.ndarray]) -> 
                 gt[kf_ticks, :2],
                 maps["loop_closures"],
                 maps["closure_accepted"],
-                run_dir / PANELS[3],
+                vdir / PANELS[3],
             )
         )
     return out
@@ -95,8 +137,11 @@ def _fmt(v, unit=""):
     return f"{v}{unit}"
 
 
-def _variant_section(name: str, label: str, v: VariantResult) -> list[str]:
-    """One variant's accuracy table and counts."""
+_RATSLAM_TRAJECTORIES = ("ratslam_online", "pose_cell_path", "experience_map")
+
+
+def _variant_section(name: str, label: str, v: VariantResult, published: VariantResult | None = None) -> list[str]:
+    """One variant's accuracy table and counts (and the published RatSLAM's, if it ran)."""
     lines = [f"### Variant `{name}`: {label}", ""]
     if v.derived_scale:
         lines += [v.derived_scale.replace("\n", " "), ""]
@@ -105,6 +150,12 @@ def _variant_section(name: str, label: str, v: VariantResult) -> list[str]:
         lines += ["| trajectory | ATE (m) | alignment yaw (deg) |", "|---|---|---|"]
         for system, ate in v.ate.items():
             lines.append(f"| {system} | {_fmt(ate)} | {_fmt(None if yaw is None else yaw.get(system))} |")
+        if published is not None and published.ate is not None:
+            p_yaw = published.alignment_yaw_deg
+            for system in _RATSLAM_TRAJECTORIES:
+                p_ate = published.ate.get(system)
+                y = None if p_yaw is None else p_yaw.get(system)
+                lines.append(f"| {system}, RatSLAM as published | {_fmt(p_ate)} | {_fmt(y)} |")
     else:
         lines.append("No ground truth: no accuracy measured.")
     lc, t = v.loop_closure, v.timing
@@ -121,7 +172,44 @@ def _variant_section(name: str, label: str, v: VariantResult) -> list[str]:
         f"GTSAM {t.gtsam_s:.1f} s (x{_fmt(t.gtsam_realtime_factor)} real time).",
         "",
     ]
+    if published is not None:
+        pt = published.timing
+        lines[-1:] = [
+            f"RatSLAM as published: experiences {published.experiences}, transitions {published.links}, snaps "
+            f"{published.snaps}, multiple representations {_fmt(published.multiple_representations)}, hash "
+            f"collisions {_fmt(published.hash_collisions)}; {pt.ratslam_s:.1f} s "
+            f"(x{_fmt(pt.ratslam_realtime_factor)} real time).",
+            "",
+        ]
     return lines
+
+
+def _claims_table(claims: list[ClaimResult], published: list[ClaimResult] | None) -> list[str]:
+    """The paper's claims, judged for the project's defaults and, if it ran, RatSLAM as published."""
+    held = sum(c.held for c in claims)
+    if published is None:
+        lines = [f"## The paper's claims ({held}/{len(claims)} held)", ""]
+        lines += ["| claim | measured | held |", "|---|---|---|"]
+        lines += [f"| {c.statement} | {c.measured} | {'yes' if c.held else '**no**'} |" for c in claims]
+        return lines + [""]
+    by_key = {c.key: c for c in published}
+    p_held = sum(c.held for c in published)
+    lines = [
+        f"## The paper's claims (project defaults {held}/{len(claims)} held; RatSLAM as published "
+        f"{p_held}/{len(published)})",
+        "",
+        "Each claim judged on the same streams for RatSLAM with the project's defaults and with the "
+        "paper's algorithm as published (`RatSLAMConfig.published()`; docs/fidelity.md says why they differ). "
+        "The pose graph's numbers are the same run's in both columns.",
+        "",
+        "| claim | project defaults | held | as published | held |",
+        "|---|---|---|---|---|",
+    ]
+    for c in claims:
+        p = by_key.get(c.key)
+        p_cells = f"{p.measured} | {'yes' if p.held else '**no**'}" if p is not None else "n/a | n/a"
+        lines.append(f"| {c.statement} | {c.measured} | {'yes' if c.held else '**no**'} | {p_cells} |")
+    return lines + [""]
 
 
 def render_markdown(run: RunResult, panels: list[str]) -> str:
@@ -148,15 +236,7 @@ def render_markdown(run: RunResult, panels: list[str]) -> str:
         lines += [fig.notes, ""]
     claims = run.claims or []
     if claims:
-        held = sum(c.held for c in claims)
-        lines += [
-            f"## The paper's claims ({held}/{len(claims)} held)",
-            "",
-            "| claim | measured | held |",
-            "|---|---|---|",
-        ]
-        lines += [f"| {c.statement} | {c.measured} | {'yes' if c.held else '**no**'} |" for c in claims]
-        lines.append("")
+        lines += _claims_table(claims, None if run.published is None else run.published.claims)
     lines += [
         "## Accuracy",
         "",
@@ -168,9 +248,15 @@ def render_markdown(run: RunResult, panels: list[str]) -> str:
         "",
     ]
     for name, v in run.variants.items():
-        lines += _variant_section(name, run.label(name), v)
+        published = None if run.published is None else run.published.variants.get(name)
+        lines += _variant_section(name, run.label(name), v, published)
     if panels:
-        lines += ["## Panels", ""] + [f"![{p}]({p})" for p in panels] + [""]
+        lines += ["## Panels", ""]
+        for i, name in enumerate(run.variants):
+            where = "" if i == 0 else f"variants/{name}/"
+            mine = [p for p in panels if p.rpartition("/")[0] + ("/" if "/" in p else "") == where]
+            if mine:
+                lines += [f"### `{name}`", ""] + [f"![{p}]({p})" for p in mine] + [""]
     lines += [
         "## Recording",
         "",
@@ -197,5 +283,5 @@ def write_report(run_dir, run: RunResult | None = None) -> Path:
     if not run_dir.is_dir():
         raise ReportError(f"{run_dir}: not a directory")
     run, maps = _load(run_dir, run)
-    panels = [p.name for p in write_panels(run_dir, run, maps)]
+    panels = [p.relative_to(run_dir).as_posix() for p in write_panels(run_dir, run, maps)]
     return atomic_write_text(run_dir / "report.md", render_markdown(run, panels))

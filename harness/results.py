@@ -329,6 +329,7 @@ class RunResult:
     title: str | None = None  # a replay's
     log: str | None = None  # a replay's observation log
     published: RunResult | None = None  # the same streams with RatSLAM as published (its own claims)
+    trajectory_sha256: dict[str, str] | None = None  # the run's TUM files (regenerated, not kept)
 
     @property
     def primary(self) -> VariantResult:
@@ -369,6 +370,8 @@ class RunResult:
             out["claims"] = [dataclasses.asdict(c) for c in self.claims]
         if self.published is not None:
             out["published"] = self.published._alternative_json()
+        if self.trajectory_sha256 is not None:
+            out["trajectory_sha256"] = self.trajectory_sha256
         out["provenance"] = self.provenance
         return out
 
@@ -391,6 +394,7 @@ class RunResult:
         figure, world = doc.pop("figure"), doc.pop("world", None)
         claims = doc.pop("claims", None)
         published = doc.pop("published", None)
+        checksums = doc.pop("trajectory_sha256", None)
         run = cls(
             figure=None if figure is None else FigureInfo(**figure),
             variants={name: VariantResult.from_json(v) for name, v in doc.pop("variants").items()},
@@ -405,6 +409,7 @@ class RunResult:
             title=doc.pop("title", None),
             log=doc.pop("log", None),
             extras=doc,
+            trajectory_sha256=checksums,
         )
         if published is None:
             return run

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 TABLE_1 = "paper, Table 1"
 TEXT = "paper, text"
 SILENT = "paper silent: our reading"
-SCALE = "scale of the robot and environment (kept from the configuration the preset is applied to)"
+SCALE = "scale: kept from the configuration the preset is applied to"
 DEPARTURE = "not in the paper: off"
 
 
@@ -165,3 +165,27 @@ PAPER_REENTRIES = published_changes(
         "reentry.heading_sigma_deg",
     ]
 )
+
+
+def _shown(value: Any) -> str:
+    if value is _KEEP:
+        return "(kept)"
+    if isinstance(value, bool):
+        return "`true`" if value else "`false`"
+    if isinstance(value, float) and math.isinf(value):
+        return "`inf`"
+    return f"`{value!r}`"
+
+
+def markdown_table() -> str:
+    """The preset as a markdown table: every field, its default, its published value, the source
+    and the reading (docs/configuration.md holds this table; a test keeps the two equal)."""
+    from .config import RatSLAMConfig
+
+    defaults = RatSLAMConfig()
+    lines = ["| field | default | published | source | reading |", "|---|---|---|---|---|"]
+    for path, reading in PUBLISHED.items():
+        section, name = path.split(".")
+        default = getattr(getattr(defaults, section), name)
+        lines.append(f"| `{path}` | {_shown(default)} | {_shown(reading.value)} | {reading.source} | {reading.note} |")
+    return "\n".join(lines) + "\n"
