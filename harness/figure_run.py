@@ -171,21 +171,23 @@ PUBLISHED = "published"
 
 def ratslam_settings(
     rs_cfg: RatSLAMConfig, choice: RatSLAMChoice, derivation: str = ""
-) -> tuple[RatSLAMConfig, dict[str, RatSLAMConfig], str]:
+) -> tuple[RatSLAMConfig, dict[str, RatSLAMConfig], dict[str, str]]:
     """The run's RatSLAM configuration, the alternatives run beside it, and the derivation text
-    (which, for the published preset, names the values set by the log's derivation or a
-    configuration file that the preset's fixed values replace: none is overwritten silently)."""
+    of each (key "" for the run's own): for the published preset it also names the values, set
+    by the log's derivation or by a configuration file, that the preset's fixed values replace
+    (none is overwritten silently)."""
     if choice == "defaults":
-        return rs_cfg, {}, derivation
+        return rs_cfg, {}, {"": derivation}
     published = RatSLAMConfig.published(rs_cfg)
-    replaced = [d for d in departures(rs_cfg) if d not in departures(RatSLAMConfig())]
+    replaced = [d for d in departures(rs_cfg, inert=False) if d not in departures(RatSLAMConfig(), inert=False)]
+    published_derivation = derivation
     if replaced:
-        derivation = (derivation + "\n" if derivation else "") + (
+        published_derivation = (derivation + "\n" if derivation else "") + (
             "The published preset fixes the paper's values over those derived or given: " + "; ".join(replaced) + "."
         )
     if choice == "published":
-        return published, {}, derivation
-    return rs_cfg, {PUBLISHED: published}, derivation
+        return published, {}, {"": published_derivation}
+    return rs_cfg, {PUBLISHED: published}, {"": derivation, PUBLISHED: published_derivation}
 
 
 def _pool_context():
@@ -300,7 +302,8 @@ def _run_variant(
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
-    rs_cfg, alternatives, derivation = ratslam_settings(rs_cfg, ratslam, derivation)
+    rs_cfg, alternatives, derivations = ratslam_settings(rs_cfg, ratslam, derivation)
+    derivation = derivations[""]
     result, alt_results = run_single_stream(
         run_dir,
         log,
@@ -317,7 +320,7 @@ def _run_variant(
         alternatives=alternatives,
     )
 
-    def recorded(r: VariantResult, cfg: RatSLAMConfig) -> VariantResult:
+    def recorded(r: VariantResult, cfg: RatSLAMConfig, name: str = "") -> VariantResult:
         return dataclasses.replace(
             r,
             config=VariantConfig(
@@ -327,7 +330,7 @@ def _run_variant(
                 pi_bias_deg_s=variant.pi_bias,
                 wheel_errors=dict(PLAZA_WHEEL_ERRORS) if variant.wheel_errors else None,
             ),
-            derived_scale=derivation or None,
+            derived_scale=derivations[name] or None,
         )
 
     lap = lap_length(world, log.ground_truth()) if world is not None else None
@@ -335,7 +338,7 @@ def _run_variant(
         recorded(result, rs_cfg),
         lap,
         log.duration,
-        {name: recorded(r, alternatives[name]) for name, r in alt_results.items()},
+        {name: recorded(r, alternatives[name], name) for name, r in alt_results.items()},
     )
 
 
@@ -485,7 +488,8 @@ def replay(
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
-    rs_cfg, alternatives, derivation = ratslam_settings(rs_cfg, ratslam, derivation)
+    rs_cfg, alternatives, derivations = ratslam_settings(rs_cfg, ratslam, derivation)
+    derivation = derivations[""]
     out = Path(out)
     with staged_directory(out, (Path(log_path), *_inputs(config))) as stage, _named(log_path):
         result, alt_results = run_single_stream(
@@ -501,11 +505,11 @@ def replay(
             alternatives=alternatives,
         )
 
-        def recorded(r: VariantResult, cfg: RatSLAMConfig) -> VariantResult:
+        def recorded(r: VariantResult, cfg: RatSLAMConfig, name: str = "") -> VariantResult:
             return dataclasses.replace(
                 r,
                 config=VariantConfig(ratslam=dataclasses.asdict(cfg), gtsam=dataclasses.asdict(pg_cfg)),
-                derived_scale=derivation,
+                derived_scale=derivations[name],
             )
 
         run = RunResult(
@@ -520,7 +524,7 @@ def replay(
             run = dataclasses.replace(
                 run,
                 published=dataclasses.replace(
-                    run, variants={"replay": recorded(alt_results[PUBLISHED], alternatives[PUBLISHED])}
+                    run, variants={"replay": recorded(alt_results[PUBLISHED], alternatives[PUBLISHED], PUBLISHED)}
                 ),
             )
         write_run(stage, run)

@@ -39,6 +39,7 @@ class Reading:
     value: Any
     source: str
     note: str
+    inert: bool = False  # a field the published algorithm never reads (a switched-off departure's)
 
 
 _KEEP = object()  # a SCALE field: no value of its own
@@ -46,6 +47,11 @@ _KEEP = object()  # a SCALE field: no value of its own
 
 def _scale(note: str) -> Reading:
     return Reading(_KEEP, SCALE, note)
+
+
+def _inert(value: Any, what: str = "") -> Reading:
+    """A field of a departure the published algorithm switches off: the default kept, never read."""
+    return Reading(value, DEPARTURE, (what + " " if what else "") + "(unused with it off)", inert=True)
 
 
 PUBLISHED: dict[str, Reading] = {
@@ -93,28 +99,28 @@ PUBLISHED: dict[str, Reading] = {
     ),
     "experience_map.correction_iterations": Reading(1, TEXT, "one correction per iteration"),
     "experience_map.relocalise_path_bound": Reading(False, DEPARTURE, "a re-entry is wherever the pose cells say"),
-    "experience_map.relocalise_slack_cells": Reading(4.0, DEPARTURE, "slack of that bound (unused with it off)"),
+    "experience_map.relocalise_slack_cells": _inert(4.0, "slack of that bound"),
     "experience_map.loop_closure_sequence": Reading(False, DEPARTURE, "one view closes a loop"),
     "experience_map.odometry_gate_chi2": Reading(math.inf, DEPARTURE, "no odometry gate on re-entries"),
     # --- re-entry fusion: not in the paper
     "reentry.position_sigma_m": Reading(0.0, DEPARTURE, "re-entries not fused with the odometry"),
     "reentry.heading_sigma_deg": Reading(0.0, DEPARTURE, "re-entries not fused with the odometry"),
-    "reentry.odom_speed_noise_m_s": Reading(0.01, DEPARTURE, "the fusion's odometry model (unused with it off)"),
-    "reentry.odom_heading_noise_rad_s": Reading(0.01, DEPARTURE, "the fusion's odometry model (unused with it off)"),
-    "reentry.innovation_window": Reading(15, DEPARTURE, "the fusion's noise scaling (unused with it off)"),
-    "reentry.odometry_trust_limit": Reading(2.0, DEPARTURE, "the fusion's trust limit (unused with it off)"),
+    "reentry.odom_speed_noise_m_s": _inert(0.01, "the fusion's odometry model"),
+    "reentry.odom_heading_noise_rad_s": _inert(0.01, "the fusion's odometry model"),
+    "reentry.innovation_window": _inert(15, "the fusion's noise scaling"),
+    "reentry.odometry_trust_limit": _inert(2.0, "the fusion's trust limit"),
     "reentry.chain_fixes": Reading(False, DEPARTURE, "no chained fixes"),
     # --- yaw-rate bias search: not in the paper
     "yaw_bias.search": Reading(False, DEPARTURE, "no yaw-rate bias search"),
-    "yaw_bias.search_max_deg_s": Reading(3.0, DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.search_step_deg_s": Reading(0.05, DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.search_max_span_s": Reading(300.0, DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.search_kernel": Reading(3.0, DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.search_min_gain": Reading(4.0, DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.revisit_min_travel_m": Reading(4.0, DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.revisit_sigma_xy_m": Reading(1.0 / math.sqrt(6.0), DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.revisit_sigma_heading_deg": Reading(90.0 / math.sqrt(6.0), DEPARTURE, "(unused with the search off)"),
-    "yaw_bias.settle_turn_deg": Reading(0.0, DEPARTURE, "(unused with the search off)"),
+    "yaw_bias.search_max_deg_s": _inert(3.0),
+    "yaw_bias.search_step_deg_s": _inert(0.05),
+    "yaw_bias.search_max_span_s": _inert(300.0),
+    "yaw_bias.search_kernel": _inert(3.0),
+    "yaw_bias.search_min_gain": _inert(4.0),
+    "yaw_bias.revisit_min_travel_m": _inert(4.0),
+    "yaw_bias.revisit_sigma_xy_m": _inert(1.0 / math.sqrt(6.0)),
+    "yaw_bias.revisit_sigma_heading_deg": _inert(90.0 / math.sqrt(6.0)),
+    "yaw_bias.settle_turn_deg": _inert(0.0),
 }
 """Every field of :class:`RatSLAMConfig` by dotted path: the published preset's reading."""
 
@@ -141,12 +147,13 @@ def published_changes(paths: list[str] | None = None) -> dict[str, dict[str, Any
     return out
 
 
-def departures(config: RatSLAMConfig) -> list[str]:
+def departures(config: RatSLAMConfig, inert: bool = True) -> list[str]:
     """The fields of ``config`` whose value differs from the published preset's (``SCALE``
-    fields aside), as ``path = value (published: value)``."""
+    fields aside; ``inert`` False: also those the published algorithm never reads), as
+    ``path = value (published: value)``."""
     out = []
     for path, reading in PUBLISHED.items():
-        if reading.value is _KEEP:
+        if reading.value is _KEEP or (reading.inert and not inert):
             continue
         section, name = path.split(".")
         value = getattr(getattr(config, section), name)

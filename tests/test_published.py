@@ -57,12 +57,13 @@ def test_published_preset_is_the_paper_and_keeps_the_scale():
 def test_a_preset_never_overwrites_a_derived_value_silently():
     """Values derived from a log (or given) that the preset replaces are named in the run's note."""
     derived = RatSLAMConfig().replace(pose_cells={"trans_gain": 1.02, "cell_size_m": 0.4})
-    cfg, alternatives, note = ratslam_settings(derived, "published", "Derived: ...")
+    cfg, alternatives, notes = ratslam_settings(derived, "published", "Derived: ...")
     assert cfg.pose_cells.trans_gain == 1.0 and cfg.pose_cells.cell_size_m == 0.4
-    assert alternatives == {} and "pose_cells.trans_gain = 1.02 (published: 1.0)" in note
-    cfg, alternatives, note = ratslam_settings(derived, "both", "Derived: ...")
+    assert alternatives == {} and "pose_cells.trans_gain = 1.02 (published: 1.0)" in notes[""]
+    cfg, alternatives, notes = ratslam_settings(derived, "both", "Derived: ...")
     assert cfg == derived and alternatives["published"].pose_cells.trans_gain == 1.0
-    assert ratslam_settings(derived, "defaults", "x") == (derived, {}, "x")
+    assert notes[""] == "Derived: ..." and "trans_gain = 1.02" in notes["published"]
+    assert ratslam_settings(derived, "defaults", "x") == (derived, {}, {"": "x"})
 
 
 def test_config_file_preset_then_its_fields(tmp_path):
