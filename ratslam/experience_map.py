@@ -198,12 +198,14 @@ class ExperienceMap(MapLayers):
         e_v = (self._exp.cols["view"][ids] == view).astype(float)  # eqs 6-8
         if cfg.energy == "sum":
             return e_v * (e_xy + e_th)  # eq 9
-        return e_v * e_xy * e_th
+        return e_v * e_xy * e_th  # the stricter product form (energy = "product"; not in the paper)
 
     # ------------------------------------------------------------------ eqs 10-11
     def update(self, tick: int, peak_cell: np.ndarray, view: int) -> str:
         """Experience selection for this tick. ``view`` is the scene number (-1: no view, which
-        never switches or creates experiences). Returns "none", "create" or "switch"."""
+        never switches or creates experiences). The most energetic experience becomes current
+        (the re-entry policy may refuse or hold it: the next one is asked); none with positive
+        energy: a new one (eqs 10-11). Returns "none", "create" or "switch"."""
         if view < 0:
             return "none"
         ids = self._by_view.get(int(view))
