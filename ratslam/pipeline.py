@@ -16,27 +16,13 @@ from .experience_map import ExperienceMap
 from .local_view import LocalView
 from .pose_cells import PoseCells
 from .snaps import is_snap
-from .yaw_bias import YawBiasSearch
+from .view_gate import ViewGate
+from .yaw_bias_correction import YawBiasCorrection
 
 # format 2: the latest snap; 3: nested config; 4: path noise per experience; 5: loop-closure
 # candidate and the latest re-entry's fix (a state without the yaw-bias search's arrays, saved
 # before it, loads with the search starting afresh)
 _FORMAT = "ratslam-state-5"
-
-
-def _bias_search(config: RatSLAMConfig) -> YawBiasSearch:
-    """The yaw-rate bias search of ``config.yaw_bias`` (degrees converted to radians)."""
-    yb = config.yaw_bias
-    return YawBiasSearch(
-        max_rad_s=math.radians(yb.search_max_deg_s),
-        step_rad_s=math.radians(yb.search_step_deg_s),
-        max_span_s=yb.search_max_span_s,
-        min_travel_m=yb.revisit_min_travel_m,
-        sigma_xy_m=yb.revisit_sigma_xy_m,
-        sigma_theta_rad=math.radians(yb.revisit_sigma_heading_deg),
-        kernel=yb.search_kernel,
-        min_gain=yb.search_min_gain,
-    )
 
 
 class RatSLAM:
@@ -46,12 +32,13 @@ class RatSLAM:
     if it is familiar; the pose cells iterate and path-integrate the odometry (plus the optional
     path-integration bias); the view cell learns its association with the active pose cells; the
     experience map integrates the wheel odometry, selects/creates the current experience
-    (eqs 2-11) once the scene has been seen for ``experience_map.view_confirm_ticks`` consecutive
-    ticks and the peak has not snapped for ``experience_map.snap_settle_ticks`` (a new loop closure
-    waits for the next scene to agree: ``experience_map.loop_closure_sequence``), and runs its
+    (eqs 2-11) for the scene the view gate lets through (:class:`ratslam.view_gate.ViewGate`:
+    seen for ``experience_map.view_confirm_ticks`` consecutive ticks, the peak not snapped for
+    ``experience_map.snap_settle_ticks``; the map's re-entry policy may hold a new loop closure
+    until the next scene agrees: ``experience_map.loop_closure_sequence``), and runs its
     correction (eqs 12-14). Beforehand, unless ``yaw_bias.search`` is off, the tick feeds the
-    yaw-rate bias search (:mod:`ratslam.yaw_bias`); once it adopts a bias the transitions are
-    corrected (:meth:`ExperienceMap.remove_yaw_bias`) and every consumer gets the corrected yaw rate.
+    yaw-rate bias search (:mod:`ratslam.yaw_bias_correction`); once it adopts a bias the
+    transitions are corrected and every consumer gets the corrected yaw rate.
 
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
     """
@@ -65,9 +52,8 @@ class RatSLAM:
         self._snapped = False
         self._bias = math.radians(self._config.pose_cells.path_integration_bias_deg_s)
         self._grid = np.array(self._config.shape, dtype=float)
-        self._last_scene, self._scene_run = -1, 0  # consecutive ticks of the current scene
-        self._last_snap = -(1 << 62)  # step index of the latest snap
-        self._bias_search = _bias_search(self._config) if self._config.yaw_bias.search else None
+        self._view_gate = ViewGate(self._config)
+        self._yaw_bias = YawBiasCorrection(self._config)
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
@@ -84,18 +70,9 @@ class RatSLAM:
         self.local_view.learn(k, pc)
         new_peak = pc.peak
         self._snapped = bool(is_snap(old_peak, new_peak, self._grid, self._config.pose_cells.snap_threshold_cells))
-        if scene_id == self._last_scene:
-            self._scene_run += 1
-        else:
-            self._last_scene, self._scene_run = scene_id, 1
         em = self.experience_map
         em.integrate(dt, v_trans, v_rot)
-        confirmed = scene_id if self._scene_run >= self._config.experience_map.view_confirm_ticks else -1
-        if self._snapped:
-            self._last_snap = k
-        if k - self._last_snap < self._config.experience_map.snap_settle_ticks:
-            confirmed = -1  # the peak has not settled yet
-        em.update(k, new_peak, confirmed)
+        em.update(k, new_peak, self._view_gate.confirmed(k, scene_id, self._snapped))
         for _ in range(self._config.experience_map.correction_iterations):
             em.correct()
         self._tick += 1
@@ -113,17 +90,8 @@ class RatSLAM:
 
     def _unbiased(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> float:
         """The tick's yaw rate less the bias found so far; a newly adopted bias first corrects
-        the map's transitions."""
-        search = self._bias_search
-        if search is None:
-            return v_rot
-        before = search.bias
-        if search.add(dt, v_trans, v_rot, scene_id) is not None:
-            change = search.bias - before
-            elapsed = search.time - dt  # the map's span before this tick
-            settle = abs(change) * elapsed > math.radians(self._config.yaw_bias.settle_turn_deg)
-            self.experience_map.remove_yaw_bias(change, settle)
-        return v_rot - search.bias
+        the map's transitions (:meth:`ratslam.yaw_bias_correction.YawBiasCorrection.unbiased`)."""
+        return self._yaw_bias.unbiased(self.experience_map, dt, v_trans, v_rot, scene_id)
 
     # ------------------------------------------------------------------ read access
     @property
@@ -145,7 +113,7 @@ class RatSLAM:
     @property
     def yaw_bias(self) -> float:
         """The yaw-rate bias (rad/s) taken off the odometry: 0 until the search adopts one."""
-        return self._bias_search.bias if self._bias_search is not None else 0.0
+        return self._yaw_bias.bias
 
     @property
     def pose_cell_activity(self) -> np.ndarray:
@@ -232,11 +200,8 @@ class RatSLAM:
         arrays.update(self.pose_cells.get_state())
         arrays.update(self.local_view.get_state())
         arrays.update(self.experience_map.get_state())
-        arrays["rs_tick"] = np.array(
-            [self._tick, int(self._snapped), self._last_scene, self._scene_run, self._last_snap], dtype=np.int64
-        )
-        if self._bias_search is not None:  # its adopted bias is in its state
-            arrays.update(self._bias_search.get_state())
+        arrays["rs_tick"] = np.array([self._tick, int(self._snapped), *self._view_gate.get_state()], dtype=np.int64)
+        arrays.update(self._yaw_bias.get_state())  # the search's adopted bias is in its state
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
@@ -257,8 +222,8 @@ class RatSLAM:
         obj.pose_cells.set_state(s)
         obj.local_view.set_state(s)
         obj.experience_map.set_state(s)
-        obj._tick, snapped, obj._last_scene, obj._scene_run, obj._last_snap = (int(v) for v in s["rs_tick"])
+        obj._tick, snapped = (int(v) for v in s["rs_tick"][:2])
         obj._snapped = bool(snapped)
-        if obj._bias_search is not None and "yb_scalars" in s:
-            obj._bias_search.set_state(s)
+        obj._view_gate.set_state(s["rs_tick"][2:])
+        obj._yaw_bias.set_state(s)
         return obj

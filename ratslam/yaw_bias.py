@@ -1,7 +1,7 @@
 """A constant yaw-rate (gyro) bias searched from the odometry of repeated scene numbers.
 
 Used by both systems: the pose graph (``PoseGraphConfig.yaw_bias``) and RatSLAM
-(``RatSLAMConfig.yaw_bias``; see :meth:`ratslam.experience_map.ExperienceMap.remove_yaw_bias`).
+(``RatSLAMConfig.yaw_bias``; see :mod:`ratslam.yaw_bias_correction`).
 
 The pose graph's wrapped heading residuals cannot close a loop whose heading error has grown
 past about 180 deg (1.5 deg/s over a 72 s lap is already 108 deg; see the traps in DESIGN.md),

@@ -1,0 +1,41 @@
+"""Poses in the plane (x, y, θ): wrapping angles, composing and relating poses.
+
+Shared by the experience map and the layers around it (re-entry policy, yaw-rate correction).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+_PI = math.pi
+
+
+def wrap_angle(a):
+    """Wrap radians into [-π, π]."""
+    a = np.asarray(a)
+    return a - (2.0 * _PI) * np.round(a * (1.0 / (2.0 * _PI)))
+
+
+def wrap_scalar(a: float) -> float:
+    """Wrap one angle (radians) into [-π, π)."""
+    return (a + _PI) % (2.0 * _PI) - _PI
+
+
+def triple(v) -> tuple[float, float, float]:
+    """The first three entries of ``v`` as Python floats."""
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def compose(a, b) -> tuple[float, float, float]:
+    """Pose ``b`` (in ``a``'s frame) in the frame ``a`` is in."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2])
+
+
+def between(a, b) -> tuple[float, float, float]:
+    """Pose ``b`` in ``a``'s frame (both in one frame)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return (c * dx + s * dy, -s * dx + c * dy, b[2] - a[2])
