@@ -4,8 +4,9 @@ The experience map (eqs 2-11) switches to the most energetic experience whose vi
 each such re-entry it asks this policy one question: *the robot re-enters experience j at this
 offset in j's frame: accept, hold or refuse?* (:meth:`ReentryPolicy.judge`), and, once accepted,
 *at what pose?* (:meth:`ReentryPolicy.accept`). The paper's answer is always "accept, where the
-pose cells say" (every switch below off, as in the published preset, ``RatSLAMConfig.published()``; its re-entry part alone: ``ratslam.PAPER_REENTRIES``). Four rules, each with its
-own switch in the configuration:
+pose cells say" (every switch below off, as in the published preset,
+``RatSLAMConfig.published()``; its re-entry part alone: ``ratslam.PAPER_REENTRIES``). Four rules,
+each with its own switch in the configuration:
 
 Path bound (``experience_map.relocalise_path_bound``, :class:`PathBound`): a place further from
 the predicted pose (the current pose: the map and the odometry) than the path driven since the
