@@ -122,6 +122,12 @@ class ViewMatcher:
             return ViewMatch(int(i), self._rotation(int(s)), float(d), False)
         return ViewMatch(self._store(view, cols, mean), 0.0, 0.0, True)
 
+    def store(self, image) -> int:
+        """Store the image's template without matching it (building a template set, e.g. for a
+        benchmark); returns its number."""
+        view = np.ascontiguousarray(self.template_of(image).T)
+        return self._store(view, view.mean(axis=1), float(view.mean()))
+
     def differences(self, image) -> tuple[np.ndarray, np.ndarray]:
         """Every stored template's least difference to the image and the rotation at which it is
         least (no pre-filter, no storing: for diagnostics and tests)."""
