@@ -45,6 +45,8 @@ MOTIF_SIZE = 16
 FLOOR_TONE, CEILING_TONE = 0.30, 0.85
 OFFSET_QUANTUM = 0.05
 """Wall lines closer than this (m) to each other count as one line for the texture."""
+CHUNK_RAY_WALLS = 1 << 17
+"""Ray-wall pairs cast at once by :meth:`Camera.render_poses` (measured fastest: bench/bench_camera.py)."""
 _NOISE_STREAM = 4  # the camera noise's stream of a seed (the simulator uses 1-3)
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -165,9 +167,12 @@ class Camera:
         pose = np.array([[x, y, theta]], dtype=float)
         return self.render_poses(pose, np.array([t], dtype=float), np.array([tick], dtype=np.int64))[0]
 
-    def render_poses(self, poses, t=None, ticks=None, chunk: int = 256) -> np.ndarray:
+    def render_poses(self, poses, t=None, ticks=None, chunk: int | None = None) -> np.ndarray:
         """Images (N, height, width) float32 of poses (N, 3) at times ``t`` (N,) and ticks (N,)
-        (default 0 and 0..N-1); frame ``k`` equals ``render(*poses[k], t[k], ticks[k])``."""
+        (default 0 and 0..N-1); frame ``k`` equals ``render(*poses[k], t[k], ticks[k])``. Frames
+        are rendered ``chunk`` at a time (default: about :data:`CHUNK_RAY_WALLS` ray-wall pairs)."""
+        if chunk is None:
+            chunk = int(np.clip(CHUNK_RAY_WALLS // (self.width * len(self._a)), 1, 256))
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         n = len(poses)
         t = np.zeros(n) if t is None else np.asarray(t, dtype=float)
