@@ -5,10 +5,12 @@ Templates are stored column-major, ``(n, width, height)``, so a column is contig
 stored template and each shift ``s`` the view's column ``j`` is compared with the template's
 column ``j - s`` (wrapping when ``circular``, else over the columns both cover). The mean absolute
 difference of the column means is a lower bound of the mean absolute difference of the pixels
-(the triangle inequality, column by column), so a (template, shift) whose bound is not below the
-best difference so far is skipped exactly; a pixel sum is abandoned as soon as it exceeds the best.
-No ``fastmath``: sums are IEEE-exact and repeatable, and the first (template, shift) in search order
-wins ties.
+(the triangle inequality, column by column), that of the half-column means a tighter one, and the
+difference of the overlap's upper- and lower-half means a looser one that costs one subtraction
+(from running sums over the columns), so
+a (template, shift) whose bound is not below the best difference so far is skipped exactly; a
+pixel sum is abandoned as soon as it exceeds the best. No ``fastmath``: sums are IEEE-exact and
+repeatable, and the first (template, shift) in search order wins ties.
 """
 
 from __future__ import annotations
@@ -18,14 +20,35 @@ from numba import njit
 
 
 @njit(cache=True)
-def best_template(view, view_cols, view_mean, templates, cols, means, n, shifts, circular, threshold, prefilter):
+def best_template(
+    view,
+    view_cols,
+    view_halves,
+    view_cum,
+    view_mean,
+    templates,
+    cols,
+    halves,
+    cums,
+    means,
+    n,
+    shifts,
+    circular,
+    threshold,
+    prefilter,
+):
     """The stored template (of the first ``n``) and shift whose mean absolute difference to
     ``view`` (width, height) is least and below ``threshold``: returns (index, shift, difference),
-    index -1 when none is below. ``prefilter``: skip templates whose mean differs from the view's
-    by at least the threshold."""
+    index -1 when none is below. Templates are searched newest first (a view most often looks like
+    the latest ones, and an early good match tightens the bounds); ``prefilter``: skip templates
+    whose mean differs from the view's by at least the threshold. ``cols`` (n, width) are the
+    column means, ``halves`` (n, width, 2) the means of each column's upper and lower half and
+    ``cums`` (n, width + 1, 2) their running sums over the columns (the view's likewise)."""
     width, height = view.shape
+    split = height // 2
+    wu, wl = split / height, (height - split) / height
     best, best_i, best_s = threshold, -1, 0
-    for i in range(n):
+    for i in range(n - 1, -1, -1):
         if prefilter and abs(means[i] - view_mean) >= threshold:
             continue
         for s in shifts:
@@ -36,13 +59,36 @@ def best_template(view, view_cols, view_mean, templates, cols, means, n, shifts,
             count = j1 - j0
             if count <= 0:
                 continue
-            # lower bound from the column means
+            # lower bounds: the overlap's upper- and lower-half means (O(1) from the running sums),
+            # the column means, then the half-column means (each weighted by its rows)
+            if circular:
+                bound = wu * abs(view_cum[width, 0] - cums[i, width, 0])
+                bound += wl * abs(view_cum[width, 1] - cums[i, width, 1])
+            else:
+                k0, k1 = j0 - s, j1 - s
+                bound = wu * abs(view_cum[j1, 0] - view_cum[j0, 0] - cums[i, k1, 0] + cums[i, k0, 0])
+                bound += wl * abs(view_cum[j1, 1] - view_cum[j0, 1] - cums[i, k1, 1] + cums[i, k0, 1])
+            cap = best * count
+            if bound >= cap:
+                continue
             bound = 0.0
             for j in range(j0, j1):
-                k = (j - s) % width
-                bound += abs(view_cols[j] - cols[i, k])
-            if bound >= best * count:
+                bound += abs(view_cols[j] - cols[i, (j - s) % width])
+                if bound >= cap:
+                    break
+            if bound >= cap:
                 continue
+            if split > 0:
+                cap = best * count * height
+                bound = 0.0
+                for j in range(j0, j1):
+                    k = (j - s) % width
+                    bound += split * abs(view_halves[j, 0] - halves[i, k, 0])
+                    bound += (height - split) * abs(view_halves[j, 1] - halves[i, k, 1])
+                    if bound >= cap:
+                        break
+                if bound >= cap:
+                    continue
             limit = best * count * height
             acc = 0.0
             for j in range(j0, j1):

@@ -11,8 +11,8 @@ that classifies scenes as new or already seen". Here (settings in ``RatSLAMConfi
 3. compared with every stored template by the mean absolute difference over horizontal shifts
    (within ``max_shift_deg`` either way for a forward camera, every shift around the circle for a
    panoramic one), skipping templates whose mean intensity differs by the threshold or more;
-4. the least difference below ``match_threshold`` makes the view that template; otherwise the
-   view is stored as a new template.
+4. the least difference below ``match_threshold`` makes the view that template (the newest
+   template wins an exact tie); otherwise the view is stored as a new template.
 
 The best shift gives the relative rotation of the view against the template's, ``shift x field of
 view / width``: the view's column ``j`` matched the template's column ``j - shift``, its content
@@ -55,6 +55,8 @@ class ViewMatcher:
         w, h = c.template_width, c.template_height
         self._templates = np.zeros((16, w, h), dtype=np.float64)  # column-major: (n, width, height)
         self._cols = np.zeros((16, w))
+        self._halves = np.zeros((16, w, 2))
+        self._cums = np.zeros((16, w + 1, 2))
         self._means = np.zeros(16)
         self._n = 0
         self.col_rad = math.radians(c.field_of_view_deg) / w
@@ -104,13 +106,17 @@ class ViewMatcher:
         """The view's template and rotation; a view like no stored template is stored as new."""
         t = self.template_of(image)
         view = np.ascontiguousarray(t.T)
-        cols, mean = view.mean(axis=1), float(view.mean())
+        cols, halves, cum, mean = _statistics(view)
         i, s, d = best_template(
             view,
             cols,
+            halves,
+            cum,
             mean,
             self._templates,
             self._cols,
+            self._halves,
+            self._cums,
             self._means,
             self._n,
             self.shifts,
@@ -120,13 +126,13 @@ class ViewMatcher:
         )
         if i >= 0:
             return ViewMatch(int(i), self._rotation(int(s)), float(d), False)
-        return ViewMatch(self._store(view, cols, mean), 0.0, 0.0, True)
+        return ViewMatch(self._store(view, cols, halves, cum, mean), 0.0, 0.0, True)
 
     def store(self, image) -> int:
         """Store the image's template without matching it (building a template set, e.g. for a
         benchmark); returns its number."""
         view = np.ascontiguousarray(self.template_of(image).T)
-        return self._store(view, view.mean(axis=1), float(view.mean()))
+        return self._store(view, *_statistics(view))
 
     def differences(self, image) -> tuple[np.ndarray, np.ndarray]:
         """Every stored template's least difference to the image and the rotation at which it is
@@ -141,16 +147,30 @@ class ViewMatcher:
             shift -= w
         return shift * self.col_rad
 
-    def _store(self, view: np.ndarray, cols: np.ndarray, mean: float) -> int:
+    def _store(self, view: np.ndarray, cols: np.ndarray, halves: np.ndarray, cum: np.ndarray, mean: float) -> int:
         if self._n == len(self._templates):
             grow = len(self._templates)
             self._templates = np.concatenate((self._templates, np.zeros_like(self._templates[:grow])))
             self._cols = np.concatenate((self._cols, np.zeros_like(self._cols[:grow])))
+            self._halves = np.concatenate((self._halves, np.zeros_like(self._halves[:grow])))
+            self._cums = np.concatenate((self._cums, np.zeros_like(self._cums[:grow])))
             self._means = np.concatenate((self._means, np.zeros(grow)))
         k = self._n
-        self._templates[k], self._cols[k], self._means[k] = view, cols, mean
+        self._templates[k], self._cols[k], self._halves[k], self._cums[k] = view, cols, halves, cum
+        self._means[k] = mean
         self._n += 1
         return k
+
+
+def _statistics(view: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """A column-major template's column means (width,), the means of each column's upper and
+    lower half (width, 2; the lower half has the extra row of an odd height; a one-row template's
+    upper half is empty, mean 0), their running sums over the columns (width + 1, 2) and its mean."""
+    split = view.shape[1] // 2
+    upper = view[:, :split].mean(axis=1) if split > 0 else np.zeros(view.shape[0])
+    halves = np.stack((upper, view[:, split:].mean(axis=1)), axis=1)
+    cum = np.concatenate((np.zeros((1, 2)), np.cumsum(halves, axis=0)))
+    return view.mean(axis=1), halves, cum, float(view.mean())
 
 
 def _area_mean(a: np.ndarray, n: int, axis: int) -> np.ndarray:

@@ -95,9 +95,11 @@ def test_the_bounded_search_finds_the_exhaustive_best():
 def test_the_kernel_refuses_everything_above_the_threshold():
     view = np.full((W, H), 0.5)
     templates = np.full((1, W, H), 0.6)
+    halves = np.full((W, 2), 0.5)
+    cum = np.concatenate((np.zeros((1, 2)), np.cumsum(halves, axis=0)))
     i, _, _ = best_template(
-        view, view.mean(axis=1), 0.5, templates, templates.mean(axis=2), np.array([0.6]), 1,
-        np.array([0]), False, 0.1, False,
+        view, view.mean(axis=1), halves, cum, 0.5, templates, templates.mean(axis=2), halves[None] + 0.1,
+        cum[None] * 1.2, np.array([0.6]), 1, np.array([0]), False, 0.1, False,
     )  # fmt: skip
     assert i == -1  # a difference of exactly the threshold is not below it
 
