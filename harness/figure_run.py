@@ -362,8 +362,17 @@ def replay(
     """Replay a user's observation log through both systems into run directory ``out``
     (``config``, from a configuration file, on top of the given configurations or, where none is
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
-    and labels; the simulator's own streams get exactly the defaults)."""
+    and labels; the simulator's own streams get exactly the defaults). A camera log's images are
+    matched first (the effective ``view`` settings), its template numbers and rotations then
+    replayed (:mod:`harness.camera_stream`)."""
     log = ObservationLog.read_csv(log_path)
+    if log.image is not None:
+        from .camera_stream import match_camera_log
+
+        view = ratslam_config or RatSLAMConfig()
+        if config is not None:
+            view, _ = config.apply(view, gtsam_config or PoseGraphConfig())
+        log = match_camera_log(log, log_path, view.view)
     name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
         rs_cfg, pg_cfg = ratslam_config, gtsam_config

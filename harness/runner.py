@@ -1,7 +1,8 @@
 """Drive RatSLAM and the GTSAM baseline on the same observation stream, tick by tick.
 
-The runner hands both systems exactly the same inputs (``dt, v_trans, v_rot, scene_id``) and
-never any ground truth; it collects what the metrics, plots and recording need.
+The runner hands both systems exactly the same inputs (``dt, v_trans, v_rot, scene_id`` and,
+from a camera log, the view's rotation) and never any ground truth; it collects what the
+metrics, plots and recording need.
 """
 
 from __future__ import annotations
@@ -76,16 +77,17 @@ def run_stream(
         odometry = dead_reckon(log)
     out = {k: np.zeros((n, 3)) for k in ("ratslam_pose", "peak_cells", "peak_metres", "gtsam_pose")}
     snapped = np.zeros(n, dtype=bool)
-    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
+    rotation = log.view_rotation.tolist() if log.view_rotation is not None else [0.0] * n
+    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist(), rotation)
     t_rs = t_pg = t_rec = 0.0
     clock = time.perf_counter
     report_every = max(1, n // 200)
-    for k, (dt, v, w, scene) in enumerate(rows):
+    for k, (dt, v, w, scene, rot) in enumerate(rows):
         t0 = clock()
         try:
-            rs.step(dt, v, w, scene)
+            rs.step(dt, v, w, scene, rot)
             t1 = clock()
-            pg.step(dt, v, w, scene)
+            pg.step(dt, v, w, scene, rot)
         except ValueError as e:
             raise TickError(k, str(e)) from None
         t2 = clock()

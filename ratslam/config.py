@@ -251,7 +251,7 @@ class ViewConfig:
     camera: 50 degrees."""
     max_shift_deg: float = param(20.0, ge=0)
     """Largest rotation searched either way (forward camera; a panoramic one searches all shifts)."""
-    match_threshold: float = param(0.06, gt=0)
+    match_threshold: float = param(0.04, gt=0)
     """A view whose least mean absolute difference to a stored template (over the shifts) is below
     this is that template; otherwise it becomes a new one. See docs/camera.md."""
     global_normalisation: bool = False
