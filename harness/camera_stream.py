@@ -22,11 +22,39 @@ from PIL import Image
 
 from ratslam import ViewConfig
 from ratslam.view_matcher import ViewMatcher
-from worlds import ObservationLog
-from worlds.camera import to_uint8
+from worlds import ObservationLog, World
+from worlds.camera import Camera, to_uint8
 from worlds.observation_log import ObservationLogError
 
 from .run_dir import OutputError
+
+PANORAMIC_TEMPLATE_WIDTH = 64
+"""Template columns for the panoramic camera (5.6 degrees each)."""
+
+
+def camera_view_config(kind: str, view: ViewConfig | None = None) -> ViewConfig:
+    """The matcher's settings for a camera: ``view`` (default: the defaults, made for the forward
+    camera) as it is for the forward camera; for the panoramic one with a 360 degree field of view
+    and :data:`PANORAMIC_TEMPLATE_WIDTH` columns."""
+    view = view or ViewConfig()
+    if kind == "panoramic":
+        return dataclasses.replace(view, field_of_view_deg=360.0, template_width=PANORAMIC_TEMPLATE_WIDTH)
+    return view
+
+
+def camera_observations(world: World, log: ObservationLog, kind: str, seed: int, config: ViewConfig) -> ObservationLog:
+    """A simulated log seen through the camera: each tick rendered at its true pose (``seed``: the
+    sensor noise) and matched in order; scene numbers become template numbers with their rotations,
+    and no tick is labelled a false positive (wrong matches are the camera's own)."""
+    frames = Camera(world, kind, seed=seed).render_poses(log.ground_truth(), log.t)
+    vm = ViewMatcher(config)
+    matches = [vm.match(frame) for frame in frames]
+    return dataclasses.replace(
+        log,
+        scene_id=np.array([m.template for m in matches], dtype=np.int64),
+        view_rotation=np.array([m.rotation for m in matches]),
+        false_positive=np.zeros(len(log), dtype=bool),
+    )
 
 
 def images_folder(log_path) -> Path:

@@ -74,6 +74,7 @@ def _cmd_run(args) -> None:
         recorder_factory=None if args.no_recording else recorder_factory,
         workers=args.workers,
         config=config,
+        camera=args.camera,
     )
     _print_run_summary(out)
 
@@ -330,6 +331,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--config",
         help="TOML file with [ratslam] and [gtsam] tables of config fields, "
         "applied on top of each variant's configuration",
+    )
+    r.add_argument(
+        "--camera",
+        choices=("forward", "panoramic"),
+        help="both systems see the simulated camera through the view matcher instead of scene numbers "
+        "(default out: reports/FIGURE_CAMERA)",
     )
     r.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     r.add_argument(

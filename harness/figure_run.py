@@ -211,12 +211,21 @@ def _run_variant(
     recorder_factory: RecorderFactory | None = None,
     config: ConfigOverrides | None = None,
     redraw: bool | None = None,
+    camera: str | None = None,
 ) -> VariantRun:
     world = _variant_world(world, variant)
     log = _variant_log(fig, variant, world, duration, seed)
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
+    if camera is not None:
+        from .camera_stream import camera_view_config
+
+        rs_cfg = rs_cfg.replace(view=camera_view_config(camera))
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+    if camera is not None and world is not None:  # the scene numbers replaced by the camera's views
+        from .camera_stream import camera_observations
+
+        log = camera_observations(world, log, camera, seed, rs_cfg.view)
     result = run_single_stream(
         run_dir,
         log,
@@ -248,7 +257,7 @@ def _run_variant(
 
 def _variant_job(args) -> VariantRun:
     """One variant in a worker process (progress as plain lines: several bars would clash)."""
-    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config = args
+    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config, camera = args
     return _run_variant(
         run_dir,
         get_figure(fig_name),
@@ -260,6 +269,7 @@ def _variant_job(args) -> VariantRun:
         recorder_factory,
         config,
         redraw=False,
+        camera=camera,
     )
 
 
@@ -279,10 +289,13 @@ def run_figure(
     variants: tuple[str, ...] | None = None,
     workers: int | None = None,
     config: ConfigOverrides | None = None,
+    camera: str | None = None,
 ) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
-    always runs) into ``out`` (default ``reports/<name>``). ``config`` (from a configuration
-    file) is applied on top of each variant's own configuration.
+    always runs) into ``out`` (default ``reports/<name>``, ``reports/<name>_<camera>`` from a
+    camera). ``config`` (from a configuration file) is applied on top of each variant's own
+    configuration. ``camera`` ("forward" or "panoramic"): both systems see the simulated camera's
+    views through the view matcher (:mod:`harness.camera_stream`) instead of scene numbers.
 
     The variants are independent runs: with ``workers`` > 1 (default: one process per variant,
     at most one per core) they run in parallel processes; each is deterministic, so the output
@@ -298,26 +311,36 @@ def run_figure(
     world = load_world(fig.world) if fig.world is not None else None
     seed = fig.seed if seed is None else int(seed)
     duration = fig.duration if duration is None else float(duration)
-    out = Path(out) if out else REPORTS_DIR / fig.name
+    if camera is not None and world is None:
+        raise FigureError(f"{name}: a real data set has no simulated world to render (--camera)")
+    out = Path(out) if out else REPORTS_DIR / (fig.name if camera is None else f"{fig.name}_{camera}")
     workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
     with staged_directory(out, _inputs(config)) as stage:
         jobs = []
         for i, variant in enumerate(fig.variants):
             vdir = stage if i == 0 else stage / "variants" / variant.name
             vdir.mkdir(parents=True, exist_ok=True)
-            jobs.append((vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory, config))
+            jobs.append(
+                (vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory, config, camera)
+            )
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
             with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_pool_context()) as pool:
                 runs = list(pool.map(_variant_job, jobs))
         else:
             runs = [
-                _run_variant(vdir, fig, variant, world, duration, seed, show_progress, recorder_factory, config)
+                _run_variant(
+                    vdir, fig, variant, world, duration, seed, show_progress, recorder_factory, config, camera=camera
+                )
                 for vdir, _, variant, *_ in jobs
             ]
         primary = runs[0]
         run = RunResult(
-            figure=FigureInfo(name=fig.name, title=fig.title, notes=fig.notes),
+            figure=FigureInfo(
+                name=fig.name,
+                title=fig.title if camera is None else f"{fig.title}, from the {camera} camera",
+                notes=fig.notes,
+            ),
             world=None if world is None else WorldSource(world.name, str(world.path), primary.lap_length_m),
             real_log=fig.real_log if world is None else None,
             duration_s=primary.duration_s if duration is None else duration,
@@ -330,7 +353,9 @@ def run_figure(
         run = dataclasses.replace(
             run,
             claims=evaluate_claims(fig, run),
-            provenance=provenance(figure=fig.name, seed=seed, duration_s=duration),
+            provenance=provenance(figure=fig.name, seed=seed, duration_s=duration)
+            if camera is None
+            else provenance(figure=fig.name, seed=seed, duration_s=duration, camera=camera),
         )
         write_run(stage, run)
     return out

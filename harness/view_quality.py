@@ -7,7 +7,8 @@ current pose. Counted over every tick and over *revisits* only (matches to templ
 least ``revisit_s`` seconds before, the loop closures that matter; consecutive frames of one
 place match the template just stored):
 
-- precision: correct matches / matches;
+- precision: correct matches / matches (and with the match's rotation added to the stored
+  heading: a panoramic view matches a place at any heading);
 - recall: ticks matched correctly / ticks at which a correct template existed (a template stored
   earlier, older than ``revisit_s`` for revisits, within the radius and heading);
 - templates per place: templates / places visited (1 m cells x 90 degree heading sectors);
@@ -33,6 +34,8 @@ from ratslam.view_matcher import ViewMatcher
 from worlds import load_world, simulate
 from worlds.camera import Camera
 
+from .camera_stream import camera_view_config
+
 
 @dataclass(frozen=True)
 class ViewQuality:
@@ -42,6 +45,7 @@ class ViewQuality:
     templates: int
     places: int
     precision: float
+    turned_precision: float
     recall: float
     revisit_precision: float
     revisit_recall: float
@@ -71,6 +75,7 @@ def judge(
     t: np.ndarray,
     template: np.ndarray,
     new: np.ndarray,
+    rotation: np.ndarray,
     radius_m: float = 1.0,
     heading_deg: float = 30.0,
     revisit_s: float = 30.0,
@@ -83,6 +88,7 @@ def judge(
     close_any = np.zeros(n, dtype=bool)
     close_old = np.zeros(n, dtype=bool)
     correct = np.zeros(n, dtype=bool)
+    turned = np.zeros(n, dtype=bool)  # correct once the match's rotation is added to the heading
     dist = np.zeros(n)
     cos_h = math.cos(math.radians(heading_deg))
     for k in range(n):
@@ -96,12 +102,14 @@ def judge(
             s = stored_at[template[k]]
             dist[k] = math.hypot(poses[s, 0] - poses[k, 0], poses[s, 1] - poses[k, 1])
             correct[k] = dist[k] <= radius_m and math.cos(poses[s, 2] - poses[k, 2]) >= cos_h
+            turned[k] = dist[k] <= radius_m and math.cos(poses[s, 2] + rotation[k] - poses[k, 2]) >= cos_h
     matched = ~new
     revisit = matched & (t[stored_at[template]] <= t - revisit_s)
     wrong_revisit = revisit & ~correct
     aliased = np.unique(template[matched & (dist > alias_m)])
     return {
         "precision": float(correct[matched].mean()) if matched.any() else math.nan,
+        "turned_precision": float(turned[matched].mean()) if matched.any() else math.nan,
         "recall": float((correct & close_any).sum() / max(close_any.sum(), 1)),
         "revisit_precision": float(correct[revisit].mean()) if revisit.any() else math.nan,
         "revisit_recall": float((correct & revisit & close_old).sum() / max(close_old.sum(), 1)),
@@ -118,18 +126,6 @@ def places_visited(poses: np.ndarray) -> int:
     return len(np.unique(keys, axis=0))
 
 
-PANORAMIC_TEMPLATE_WIDTH = 64
-"""Template columns for the panoramic camera (5.6 degrees each)."""
-
-
-def default_view_config(kind: str) -> ViewConfig:
-    """The matcher's defaults for a camera: the forward one's as configured; the panoramic one
-    with a 360 degree field of view and :data:`PANORAMIC_TEMPLATE_WIDTH` columns."""
-    if kind == "panoramic":
-        return ViewConfig(field_of_view_deg=360.0, template_width=PANORAMIC_TEMPLATE_WIDTH)
-    return ViewConfig()
-
-
 def view_quality(
     world, kind: str = "forward", duration: float | None = None, seed: int = 0, config: ViewConfig | None = None
 ) -> ViewQuality:
@@ -138,11 +134,11 @@ def view_quality(
     log = simulate(world, duration=duration, seed=seed)
     poses = log.ground_truth()
     images = Camera(world, kind, seed=seed).render_poses(poses, log.t)
-    config = config or default_view_config(kind)
+    config = config or camera_view_config(kind)
     t0 = time.perf_counter()
-    template, _, new = match_stream(images, config)
+    template, rotation, new = match_stream(images, config)
     elapsed = time.perf_counter() - t0
-    q = judge(poses, log.t, template, new)
+    q = judge(poses, log.t, template, new, rotation)
     return ViewQuality(ticks=len(log), templates=int(new.sum()), places=places_visited(poses), match_s=elapsed, **q)
 
 
@@ -159,14 +155,14 @@ def main(argv=None) -> None:
     ap.add_argument("--global-normalisation", action="store_true")
     ap.add_argument("--patch-radius", type=int, default=0)
     args = ap.parse_args(argv)
-    base = default_view_config(args.camera)
+    base = camera_view_config(args.camera)
     changes: dict = {"global_normalisation": args.global_normalisation, "patch_normalisation_radius": args.patch_radius}
     if args.template:
         w, h = (int(v) for v in args.template.split("x"))
         changes.update(template_width=w, template_height=h)
     print(
-        "world         threshold  ticks  templates  per place  precision  recall  revisit prec  revisit rec"
-        "  revisits  aliased tpl  wrong med m  match s"
+        "world         threshold  ticks  templates  per place  precision  +rotation  recall  revisit prec"
+        "  revisit rec  revisits  aliased tpl  wrong med m  match s"
     )
     for name in args.world:
         world = load_world(name)
@@ -181,7 +177,8 @@ def main(argv=None) -> None:
             q = view_quality(world, args.camera, args.duration, args.seed, cfg)
             print(
                 f"{world.name:<13} {threshold:>9.3f} {q.ticks:>6} {q.templates:>10} {q.templates_per_place:>10.2f}"
-                f" {q.precision:>10.3f} {q.recall:>7.3f} {q.revisit_precision:>13.3f} {q.revisit_recall:>12.3f}"
+                f" {q.precision:>10.3f} {q.turned_precision:>10.3f} {q.recall:>7.3f} {q.revisit_precision:>13.3f}"
+                f" {q.revisit_recall:>12.3f}"
                 f" {q.revisit_matches:>9} {q.aliased_templates:>12.3f} {q.wrong_revisit_median_m:>12.2f}"
                 f" {q.match_s:>8.1f}"
             )

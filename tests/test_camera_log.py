@@ -70,3 +70,18 @@ def test_cli_simulate_camera(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "35 panoramic camera images in c_images/" in r.stdout
     assert read_image(out, 2, "c_images/000001.png").shape == (16, 128)
+
+
+def test_a_figure_runs_from_the_camera(tmp_path):
+    """``run FIG --camera forward``: both systems on the matcher's template numbers; the run says so."""
+    from harness.figure_run import run_figure
+
+    out = run_figure(
+        "fig7", tmp_path / "fig7", duration=40.0, show_progress=False, variants=(), workers=1, camera="forward"
+    )
+    run = json.loads((out / "metrics.json").read_text())
+    assert run["figure"]["title"].endswith("from the forward camera")
+    assert run["provenance"]["camera"] == "forward"
+    assert run["variants"]["default"]["experiences"] > 1
+    with pytest.raises(Exception, match="no simulated world to render"):
+        run_figure("plaza1", tmp_path / "p", duration=10.0, show_progress=False, camera="forward")
