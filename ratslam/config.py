@@ -259,8 +259,9 @@ class ViewConfig:
     patch_normalisation_radius: int = param(0, ge=0)
     """Each pixel as its z-score in the (2r+1)^2 patch around it, mapped to [0, 1] (0 = off)."""
     mean_prefilter: bool = True
-    """Skip templates whose mean intensity differs from the view's by more than the threshold (exact
-    for a panoramic camera, a heuristic for a forward one's partial overlaps)."""
+    """Skip a template at a shift where the mean intensities of the overlapping parts (upper and
+    lower halves) differ by the threshold or more: an exact lower bound of the difference, one
+    subtraction per shift (per template for a panoramic camera). Off only to measure it."""
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -25,12 +25,10 @@ def best_template(
     view_cols,
     view_halves,
     view_cum,
-    view_mean,
     templates,
     cols,
     halves,
     cums,
-    means,
     n,
     shifts,
     circular,
@@ -40,8 +38,9 @@ def best_template(
     """The stored template (of the first ``n``) and shift whose mean absolute difference to
     ``view`` (width, height) is least and below ``threshold``: returns (index, shift, difference),
     index -1 when none is below. Templates are searched newest first (a view most often looks like
-    the latest ones, and an early good match tightens the bounds); ``prefilter``: skip templates
-    whose mean differs from the view's by at least the threshold. ``cols`` (n, width) are the
+    the latest ones, and an early good match tightens the bounds). ``prefilter``: the cheap first
+    bound, from the overlap's upper- and lower-half means (exact; once per template when
+    ``circular``, the overlap being the whole image; off only to measure it). ``cols`` (n, width) are the
     column means, ``halves`` (n, width, 2) the means of each column's upper and lower half and
     ``cums`` (n, width + 1, 2) their running sums over the columns (the view's likewise)."""
     width, height = view.shape
@@ -49,8 +48,11 @@ def best_template(
     wu, wl = split / height, (height - split) / height
     best, best_i, best_s = threshold, -1, 0
     for i in range(n - 1, -1, -1):
-        if prefilter and abs(means[i] - view_mean) >= threshold:
-            continue
+        if prefilter and circular:  # the half means of the whole image, whatever the shift
+            bound = wu * abs(view_cum[width, 0] - cums[i, width, 0])
+            bound += wl * abs(view_cum[width, 1] - cums[i, width, 1])
+            if bound >= best * width:  # the running sums add ``width`` column means
+                continue
         for s in shifts:
             if circular:
                 j0, j1 = 0, width
@@ -61,16 +63,13 @@ def best_template(
                 continue
             # lower bounds: the overlap's upper- and lower-half means (O(1) from the running sums),
             # the column means, then the half-column means (each weighted by its rows)
-            if circular:
-                bound = wu * abs(view_cum[width, 0] - cums[i, width, 0])
-                bound += wl * abs(view_cum[width, 1] - cums[i, width, 1])
-            else:
+            cap = best * count
+            if prefilter and not circular:
                 k0, k1 = j0 - s, j1 - s
                 bound = wu * abs(view_cum[j1, 0] - view_cum[j0, 0] - cums[i, k1, 0] + cums[i, k0, 0])
                 bound += wl * abs(view_cum[j1, 1] - view_cum[j0, 1] - cums[i, k1, 1] + cums[i, k0, 1])
-            cap = best * count
-            if bound >= cap:
-                continue
+                if bound >= cap:
+                    continue
             bound = 0.0
             for j in range(j0, j1):
                 bound += abs(view_cols[j] - cols[i, (j - s) % width])

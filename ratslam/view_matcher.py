@@ -10,7 +10,8 @@ that classifies scenes as new or already seen". Here (settings in ``RatSLAMConfi
    patches (each pixel's z-score in its neighbourhood, mapped to [0, 1]);
 3. compared with every stored template by the mean absolute difference over horizontal shifts
    (within ``max_shift_deg`` either way for a forward camera, every shift around the circle for a
-   panoramic one), skipping templates whose mean intensity differs by the threshold or more;
+   panoramic one); a cheap exact pre-filter first skips the templates and shifts whose overlapping
+   parts' mean intensities (of the upper and lower halves) already differ by the threshold;
 4. the least difference below ``match_threshold`` makes the view that template (the newest
    template wins an exact tie); otherwise the view is stored as a new template.
 
@@ -57,7 +58,6 @@ class ViewMatcher:
         self._cols = np.zeros((16, w))
         self._halves = np.zeros((16, w, 2))
         self._cums = np.zeros((16, w + 1, 2))
-        self._means = np.zeros(16)
         self._n = 0
         self.col_rad = math.radians(c.field_of_view_deg) / w
         if c.panoramic:  # every shift around the circle, the smaller turns first
@@ -106,18 +106,16 @@ class ViewMatcher:
         """The view's template and rotation; a view like no stored template is stored as new."""
         t = self.template_of(image)
         view = np.ascontiguousarray(t.T)
-        cols, halves, cum, mean = _statistics(view)
+        cols, halves, cum = _statistics(view)
         i, s, d = best_template(
             view,
             cols,
             halves,
             cum,
-            mean,
             self._templates,
             self._cols,
             self._halves,
             self._cums,
-            self._means,
             self._n,
             self.shifts,
             self.config.panoramic,
@@ -126,7 +124,7 @@ class ViewMatcher:
         )
         if i >= 0:
             return ViewMatch(int(i), self._rotation(int(s)), float(d), False)
-        return ViewMatch(self._store(view, cols, halves, cum, mean), 0.0, 0.0, True)
+        return ViewMatch(self._store(view, cols, halves, cum), 0.0, 0.0, True)
 
     def store(self, image) -> int:
         """Store the image's template without matching it (building a template set, e.g. for a
@@ -147,30 +145,28 @@ class ViewMatcher:
             shift -= w
         return shift * self.col_rad
 
-    def _store(self, view: np.ndarray, cols: np.ndarray, halves: np.ndarray, cum: np.ndarray, mean: float) -> int:
+    def _store(self, view: np.ndarray, cols: np.ndarray, halves: np.ndarray, cum: np.ndarray) -> int:
         if self._n == len(self._templates):
             grow = len(self._templates)
             self._templates = np.concatenate((self._templates, np.zeros_like(self._templates[:grow])))
             self._cols = np.concatenate((self._cols, np.zeros_like(self._cols[:grow])))
             self._halves = np.concatenate((self._halves, np.zeros_like(self._halves[:grow])))
             self._cums = np.concatenate((self._cums, np.zeros_like(self._cums[:grow])))
-            self._means = np.concatenate((self._means, np.zeros(grow)))
         k = self._n
         self._templates[k], self._cols[k], self._halves[k], self._cums[k] = view, cols, halves, cum
-        self._means[k] = mean
         self._n += 1
         return k
 
 
-def _statistics(view: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _statistics(view: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A column-major template's column means (width,), the means of each column's upper and
     lower half (width, 2; the lower half has the extra row of an odd height; a one-row template's
-    upper half is empty, mean 0), their running sums over the columns (width + 1, 2) and its mean."""
+    upper half is empty, mean 0) and their running sums over the columns (width + 1, 2)."""
     split = view.shape[1] // 2
     upper = view[:, :split].mean(axis=1) if split > 0 else np.zeros(view.shape[0])
     halves = np.stack((upper, view[:, split:].mean(axis=1)), axis=1)
     cum = np.concatenate((np.zeros((1, 2)), np.cumsum(halves, axis=0)))
-    return view.mean(axis=1), halves, cum, float(view.mean())
+    return view.mean(axis=1), halves, cum
 
 
 def _area_mean(a: np.ndarray, n: int, axis: int) -> np.ndarray:

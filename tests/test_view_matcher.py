@@ -76,11 +76,13 @@ def test_a_new_scene_makes_a_new_template():
     assert len(vm) == 3 and vm.templates.shape == (3, H, W)
 
 
-def test_the_bounded_search_finds_the_exhaustive_best():
-    """The column-mean bound and the early exit skip only (template, shift) pairs that cannot win:
-    the best below the threshold is the exhaustive search's."""
+@pytest.mark.parametrize("prefilter", [True, False])
+@pytest.mark.parametrize("fov", [50.0, 360.0])
+def test_the_bounded_search_finds_the_exhaustive_best(prefilter, fov):
+    """The pre-filter, the bounds and the early exit skip only (template, shift) pairs that cannot
+    win: the best below the threshold is the exhaustive search's."""
     rng = np.random.default_rng(2)
-    vm = ViewMatcher(ViewConfig(match_threshold=0.5, mean_prefilter=False))
+    vm = ViewMatcher(ViewConfig(match_threshold=0.5, mean_prefilter=prefilter, field_of_view_deg=fov))
     base = _texture(rng)
     for _ in range(200):  # variations of one scene: many near misses
         vm.store(np.clip(base + rng.normal(0, 0.1, base.shape), 0, 1))
@@ -98,8 +100,8 @@ def test_the_kernel_refuses_everything_above_the_threshold():
     halves = np.full((W, 2), 0.5)
     cum = np.concatenate((np.zeros((1, 2)), np.cumsum(halves, axis=0)))
     i, _, _ = best_template(
-        view, view.mean(axis=1), halves, cum, 0.5, templates, templates.mean(axis=2), halves[None] + 0.1,
-        cum[None] * 1.2, np.array([0.6]), 1, np.array([0]), False, 0.1, False,
+        view, view.mean(axis=1), halves, cum, templates, templates.mean(axis=2), halves[None] + 0.1,
+        cum[None] * 1.2, 1, np.array([0]), False, 0.1, False,
     )  # fmt: skip
     assert i == -1  # a difference of exactly the threshold is not below it
 
