@@ -113,11 +113,14 @@ def _configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLA
 
 def _variant_world(world: World | None, variant: Variant) -> World | None:
     """The world a variant runs in: as loaded, with its look-alike regions showing their own scenes
-    if the variant says so, and with the Plaza-calibrated wheel-odometry errors if it asks for them."""
+    (and walls, to the camera) if the variant says so, and with the Plaza-calibrated wheel-odometry
+    errors if it asks for them."""
     if world is None:
         return world
     if not variant.lookalikes and world.scenes.lookalikes:
         world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+    if not variant.lookalikes and world.camera.same_as:  # the camera's look-alike walls too
+        world = dataclasses.replace(world, camera=dataclasses.replace(world.camera, same_as=()))
     if variant.wheel_errors:
         world = dataclasses.replace(world, odometry=dataclasses.replace(world.odometry, **PLAZA_WHEEL_ERRORS))
     return world

@@ -57,9 +57,8 @@ def test_look_alike_rooms_render_alike(pose):
     assert np.abs(unlike.render(x, y, th) - unlike.render(x + ROOM_C_SHIFT, y, th)).mean() > 0.02
 
 
-def test_places_alias_but_not_everywhere():
-    """A small set of motifs: a lap of the small loop shows far fewer distinct wall patterns than
-    panels, yet its corners do not all look the same."""
+def test_distinct_places_look_different_through_a_small_set_of_motifs():
+    """Six motifs over the small loop's panels, and yet its corners do not look the same."""
     cam = Camera("small_loop", "forward")
     corners = [cam.render(1.25, 1.25, 0.0), cam.render(5.75, 1.25, math.pi / 2), cam.render(5.75, 5.75, math.pi)]
     assert all(np.abs(a - b).mean() > 0.02 for i, a in enumerate(corners) for b in corners[i + 1 :])

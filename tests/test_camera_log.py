@@ -85,3 +85,15 @@ def test_a_figure_runs_from_the_camera(tmp_path):
     assert run["variants"]["default"]["experiences"] > 1
     with pytest.raises(Exception, match="no simulated world to render"):
         run_figure("plaza1", tmp_path / "p", duration=10.0, show_progress=False, camera="forward")
+
+
+def test_a_variant_without_look_alikes_has_none_to_the_camera():
+    """Fig 4's distinct-rooms variant: rooms B and C show their own scenes and their own walls."""
+    from harness.figure_run import _variant_world
+    from harness.figures import Variant
+    from worlds import load_world
+
+    office = load_world("office_floor")
+    distinct = _variant_world(office, Variant("distinct_rooms", "own scenes", lookalikes=False))
+    assert office.camera.same_as and distinct.camera.same_as == () and distinct.scenes.lookalikes == ()
+    assert _variant_world(office, Variant("default", "as shipped")).camera.same_as == office.camera.same_as
