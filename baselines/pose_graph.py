@@ -128,8 +128,10 @@ class PoseGraphSLAM:
         self._isam_keyframes = 0
 
     # ------------------------------------------------------------------ step
-    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
-        """Advance one tick: odometry (dt s, v_trans m/s, v_rot rad/s) and a scene number."""
+    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float = 0.0) -> None:
+        """Advance one tick: odometry (dt s, v_trans m/s, v_rot rad/s) and a scene number.
+        ``view_rotation`` (a camera view's rotation relative to its template) is accepted for the
+        common step contract and not used: a closure's relative pose comes from the odometry."""
         dt, v, w = float(dt), float(v_trans), float(v_rot)
         check_tick(dt, v, w)
         scene = _scene_number(scene_id)

@@ -131,11 +131,14 @@ def _configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLA
 
 def _variant_world(world: World | None, variant: Variant) -> World | None:
     """The world a variant runs in: as loaded, with its look-alike regions showing their own scenes
-    if the variant says so, and with the Plaza-calibrated wheel-odometry errors if it asks for them."""
+    (and walls, to the camera) if the variant says so, and with the Plaza-calibrated wheel-odometry
+    errors if it asks for them."""
     if world is None:
         return world
     if not variant.lookalikes and world.scenes.lookalikes:
         world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+    if not variant.lookalikes and world.camera.same_as:  # the camera's look-alike walls too
+        world = dataclasses.replace(world, camera=dataclasses.replace(world.camera, same_as=()))
     if variant.wheel_errors:
         world = dataclasses.replace(world, odometry=dataclasses.replace(world.odometry, **PLAZA_WHEEL_ERRORS))
     return world
@@ -296,12 +299,21 @@ def _run_variant(
     config: ConfigOverrides | None = None,
     redraw: bool | None = None,
     ratslam: RatSLAMChoice = "both",
+    camera: str | None = None,
 ) -> VariantRun:
     world = _variant_world(world, variant)
     log = _variant_log(fig, variant, world, duration, seed)
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
+    if camera is not None:
+        from .camera_stream import camera_view_config
+
+        rs_cfg = rs_cfg.replace(view=camera_view_config(camera))
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+    if camera is not None and world is not None:  # the scene numbers replaced by the camera's views
+        from .camera_stream import camera_observations
+
+        log = camera_observations(world, log, camera, seed, rs_cfg.view)
     rs_cfg, alternatives, derivations = ratslam_settings(rs_cfg, ratslam, derivation)
     derivation = derivations[""]
     result, alt_results = run_single_stream(
@@ -344,7 +356,7 @@ def _run_variant(
 
 def _variant_job(args) -> VariantRun:
     """One variant in a worker process (progress as plain lines: several bars would clash)."""
-    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam = args
+    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam, camera = args
     return _run_variant(
         run_dir,
         get_figure(fig_name),
@@ -357,6 +369,7 @@ def _variant_job(args) -> VariantRun:
         config,
         redraw=False,
         ratslam=ratslam,
+        camera=camera,
     )
 
 
@@ -377,12 +390,16 @@ def run_figure(
     workers: int | None = None,
     config: ConfigOverrides | None = None,
     ratslam: RatSLAMChoice = "both",
+    camera: str | None = None,
 ) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
-    always runs) into ``out`` (default ``reports/<name>``). ``config`` (from a configuration
-    file) is applied on top of each variant's own configuration. ``ratslam``: the project's
-    defaults, the published algorithm, or both on each variant's stream (the default; the claims
-    are judged for each, the published run's under ``published`` in metrics.json).
+    always runs) into ``out`` (default ``reports/<name>``, ``reports/<name>_<camera>`` from a
+    camera). ``config`` (from a configuration file) is applied on top of each variant's own
+    configuration. ``ratslam``: the project's defaults, the published algorithm, or both on each
+    variant's stream (the default; the claims are judged for each, the published run's under
+    ``published`` in metrics.json). ``camera`` ("forward" or "panoramic"): both systems see the
+    simulated camera's views through the view matcher (:mod:`harness.camera_stream`) instead of
+    scene numbers.
 
     The variants are independent runs: with ``workers`` > 1 (default: one process per variant,
     at most one per core) they run in parallel processes; each is deterministic, so the output
@@ -398,7 +415,9 @@ def run_figure(
     world = load_world(fig.world) if fig.world is not None else None
     seed = fig.seed if seed is None else int(seed)
     duration = fig.duration if duration is None else float(duration)
-    out = Path(out) if out else REPORTS_DIR / fig.name
+    if camera is not None and world is None:
+        raise FigureError(f"{name}: a real data set has no simulated world to render (--camera)")
+    out = Path(out) if out else REPORTS_DIR / (fig.name if camera is None else f"{fig.name}_{camera}")
     workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
     with staged_directory(out, _inputs(config)) as stage:
         jobs = []
@@ -406,7 +425,19 @@ def run_figure(
             vdir = stage if i == 0 else stage / "variants" / variant.name
             vdir.mkdir(parents=True, exist_ok=True)
             jobs.append(
-                (vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam)
+                (
+                    vdir,
+                    fig.name,
+                    variant,
+                    world,
+                    duration,
+                    seed,
+                    show_progress,
+                    recorder_factory,
+                    config,
+                    ratslam,
+                    camera,
+                )
             )
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
@@ -415,13 +446,27 @@ def run_figure(
         else:
             runs = [
                 _run_variant(
-                    vdir, fig, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam=ratslam
+                    vdir,
+                    fig,
+                    variant,
+                    world,
+                    duration,
+                    seed,
+                    show_progress,
+                    recorder_factory,
+                    config,
+                    ratslam=ratslam,
+                    camera=camera,
                 )
                 for vdir, _, variant, *_ in jobs
             ]
         primary = runs[0]
         run = RunResult(
-            figure=FigureInfo(name=fig.name, title=fig.title, notes=fig.notes),
+            figure=FigureInfo(
+                name=fig.name,
+                title=fig.title if camera is None else f"{fig.title}, from the {camera} camera",
+                notes=fig.notes,
+            ),
             world=None if world is None else WorldSource(world.name, str(world.path), primary.lap_length_m),
             real_log=fig.real_log if world is None else None,
             duration_s=primary.duration_s if duration is None else duration,
@@ -442,7 +487,9 @@ def run_figure(
         run = dataclasses.replace(
             run,
             claims=evaluate_claims(fig, run),
-            provenance=provenance(figure=fig.name, seed=seed, duration_s=duration, ratslam=ratslam),
+            provenance=provenance(figure=fig.name, seed=seed, duration_s=duration, ratslam=ratslam)
+            if camera is None
+            else provenance(figure=fig.name, seed=seed, duration_s=duration, ratslam=ratslam, camera=camera),
             published=published,
         )
         write_run(stage, run)
@@ -476,9 +523,18 @@ def replay(
     """Replay a user's observation log through both systems into run directory ``out``
     (``config``, from a configuration file, on top of the given configurations or, where none is
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
-    and labels; the simulator's own streams get exactly the defaults). ``ratslam``: the project's
-    defaults (the default), the published algorithm, or both on the same stream."""
+    and labels; the simulator's own streams get exactly the defaults). A camera log's images are
+    matched first (the effective ``view`` settings), its template numbers and rotations then
+    replayed (:mod:`harness.camera_stream`). ``ratslam``: the project's defaults (the default),
+    the published algorithm, or both on the same stream."""
     log = ObservationLog.read_csv(log_path)
+    if log.image is not None:
+        from .camera_stream import match_camera_log
+
+        view = ratslam_config or RatSLAMConfig()
+        if config is not None:
+            view, _ = config.apply(view, gtsam_config or PoseGraphConfig())
+        log = match_camera_log(log, log_path, view.view)
     name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
         rs_cfg, pg_cfg = ratslam_config, gtsam_config

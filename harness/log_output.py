@@ -6,10 +6,12 @@ of the library so that the command line stays a thin layer over it.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
 from worlds import ObservationLog, load_world, simulate
+from worlds.camera import Camera
 from worlds.plot import plot_run
 
 from .progress import Progress
@@ -50,10 +52,14 @@ def simulate_to_files(
     bias_deg_s: float | None = None,
     fp_rate: float | None = None,
     show_progress: bool = True,
+    camera: str | None = None,
 ) -> SimulatedLog:
     """Simulate ``world`` (a shipped world's name or a world file) and write its observation log
     to ``out`` (CSV) and a plot of the true route with the false positives to ``png`` (default:
-    next to the log). ``None`` arguments take the world's defaults."""
+    next to the log). ``None`` arguments take the world's defaults. ``camera`` ("forward" or
+    "panoramic"): a camera log instead, each tick's image rendered from the true pose and written
+    as a PNG into ``<out stem>_images/`` next to the log, named in the log's ``image`` column in
+    place of the scene numbers (:mod:`harness.camera_stream`)."""
     world = load_world(world)
     out = check_writable(out)
     png = check_writable(png) if png else out.with_suffix(".png")  # both checked before either is written
@@ -62,6 +68,11 @@ def simulate_to_files(
         int(round(duration * world.tick_rate)), f"simulate {world.name}", world.dt, enabled=show_progress
     )
     log = simulate(world, duration=duration, seed=seed, bias_deg_s=bias_deg_s, fp_rate=fp_rate, progress=progress)
+    if camera is not None:
+        from .camera_stream import write_images
+
+        frames = Camera(world, camera, seed=seed).render_poses(log.ground_truth(), log.t)
+        log = dataclasses.replace(log, image=write_images(frames, out))
     log.write_csv(out)
     gt = log.ground_truth()
     plot_run(

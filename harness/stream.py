@@ -1,8 +1,9 @@
 """The one stream loop: any set of SLAM systems stepped through an observation log, tick by tick.
 
 Every system gets exactly the same inputs, ``step(dt, v_trans, v_rot, scene_id)`` per tick (the
-step contract), and never any ground truth. Figures, replays, sweeps and navigation's exploration
-all step their systems through :func:`step_stream`; what each needs afterwards is in the returned
+step contract; from a camera stream, each view's ``view_rotation`` too) and never any ground
+truth, and has a ``pose``. Figures, replays, sweeps and navigation's exploration all step their
+systems through :func:`step_stream`; what each needs afterwards is in the returned
 :class:`Trace` of each system: the online pose at every tick, the wall time spent in the system,
 and, for a system with pose cells (RatSLAM), the peak and snaps at every tick.
 """
@@ -12,7 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -26,15 +27,6 @@ class TickError(InputError):
     def __init__(self, tick: int, problem: str):
         super().__init__(f"tick {tick} (line {tick + 2} of the log): {problem}")
         self.tick, self.problem = tick, problem
-
-
-class Stepper(Protocol):
-    """What the loop needs of a system: the step contract and its current pose."""
-
-    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None: ...
-
-    @property
-    def pose(self) -> tuple[float, float, float]: ...
 
 
 @dataclass
@@ -62,7 +54,7 @@ def _has_pose_cells(system: Any) -> bool:
 
 def step_stream(
     log: ObservationLog,
-    systems: Mapping[str, Stepper],
+    systems: Mapping[str, Any],
     *,
     on_tick: OnTick | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -85,12 +77,14 @@ def step_stream(
     other = 0.0
     clock = time.perf_counter
     report_every = max(1, n // 200)
-    rows = zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist())
-    for k, (dt, v, w, scene) in enumerate(rows):
+    columns = [log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist()]
+    if log.view_rotation is not None:  # a camera stream: each view's rotation against its template
+        columns.append(log.view_rotation.tolist())
+    for k, row in enumerate(zip(*columns)):
         for i, system in enumerate(stepping):
             t0 = clock()
             try:
-                system.step(dt, v, w, scene)
+                system.step(*row)
             except ValueError as e:
                 raise TickError(k, str(e)) from None
             wall[i] += clock() - t0
@@ -99,9 +93,9 @@ def step_stream(
             poses[i][k] = system.pose
             peak = cells[i]
             if peak is not None:
-                peak[0][k] = system.peak  # type: ignore[attr-defined]
-                peak[1][k] = system.peak_metres  # type: ignore[attr-defined]
-                peak[2][k] = system.snapped  # type: ignore[attr-defined]
+                peak[0][k] = system.peak
+                peak[1][k] = system.peak_metres
+                peak[2][k] = system.snapped
         if on_tick is not None:
             on_tick(k, systems)
         if progress is not None and (k + 1) % report_every == 0:

@@ -6,6 +6,7 @@ from .config import (
     PoseCellConfig,
     RatSLAMConfig,
     ReentryFusionConfig,
+    ViewConfig,
     YawBiasConfig,
 )
 from .pipeline import RatSLAM
@@ -19,5 +20,6 @@ __all__ = [
     "RatSLAM",
     "RatSLAMConfig",
     "ReentryFusionConfig",
+    "ViewConfig",
     "YawBiasConfig",
 ]

@@ -2,7 +2,7 @@
 
 ``RatSLAMConfig(pose_cells=PoseCellConfig(...), local_view=LocalViewConfig(...),
 experience_map=ExperienceMapConfig(...), reentry=ReentryFusionConfig(...),
-yaw_bias=YawBiasConfig(...))``; every field is
+yaw_bias=YawBiasConfig(...), view=ViewConfig(...))``; every field is
 checked by :func:`ratslam.config_fields.check_fields`. Units: pose-cell quantities are in cell
 units (x', y' cells of ``cell_size_m``, θ' cells of ``360 / n_theta`` degrees); map quantities
 are in metres and radians; rates per second. Why each default is what it is (the measured
@@ -228,6 +228,52 @@ class YawBiasConfig:
 
 
 @dataclass(frozen=True)
+class ViewConfig:
+    """The view-template matcher (:mod:`ratslam.view_matcher`): camera images to template numbers
+    and relative rotations. Used only when a stream carries images; a stream of scene numbers never
+    reads it (docs/camera.md)."""
+
+    SECTION: ClassVar[str] = "view"
+
+    crop_top: int = param(0, ge=0)
+    """Image rows removed at the top before downsampling."""
+    crop_bottom: int = param(0, ge=0)
+    """Image rows removed at the bottom."""
+    crop_left: int = param(0, ge=0)
+    """Image columns removed on the left (a forward camera only: a panoramic image wraps)."""
+    crop_right: int = param(0, ge=0)
+    """Image columns removed on the right (a forward camera only)."""
+    template_width: int = param(32, ge=2)
+    """Columns of a template (the cropped image is averaged down to it)."""
+    template_height: int = param(8, ge=1)
+    """Rows of a template."""
+    field_of_view_deg: float = param(50.0, gt=0, le=360)
+    """Horizontal field of view of the cropped image; 360 = panoramic (shifts wrap). The paper's
+    camera: 50 degrees."""
+    max_shift_deg: float = param(20.0, ge=0)
+    """Largest rotation searched either way (forward camera; a panoramic one searches all shifts)."""
+    match_threshold: float = param(0.04, gt=0)
+    """A view whose least mean absolute difference to a stored template (over the shifts) is below
+    this is that template; otherwise it becomes a new one. See docs/camera.md."""
+    global_normalisation: bool = False
+    """Scale each template to mean intensity 0.5 (undoes a global lighting gain)."""
+    patch_normalisation_radius: int = param(0, ge=0)
+    """Each pixel as its z-score in the (2r+1)^2 patch around it, mapped to [0, 1] (0 = off)."""
+    mean_prefilter: bool = True
+    """Skip a template at a shift where the mean intensities of the overlapping parts (upper and
+    lower halves) differ by the threshold or more: an exact lower bound of the difference, one
+    subtraction per shift (per template for a panoramic camera). Off only to measure it."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+    @property
+    def panoramic(self) -> bool:
+        """Whether the image covers the whole circle (shifts wrap around)."""
+        return self.field_of_view_deg >= 360.0
+
+
+@dataclass(frozen=True)
 class RatSLAMConfig:
     """All RatSLAM parameters, with the defaults used for the paper's figures (see the sub-configs
     and ``docs/configuration.md``)."""
@@ -237,6 +283,7 @@ class RatSLAMConfig:
     experience_map: ExperienceMapConfig = field(default_factory=ExperienceMapConfig)
     reentry: ReentryFusionConfig = field(default_factory=ReentryFusionConfig)
     yaw_bias: YawBiasConfig = field(default_factory=YawBiasConfig)
+    view: ViewConfig = field(default_factory=ViewConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)

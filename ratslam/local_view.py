@@ -10,9 +10,18 @@
 * Injection: a familiar view adds ``δ · V · β_v(c)`` to pose cell ``c``, using only associations
   learnt at least ``min_age_ticks`` ago (a recently learnt view never drags the packet back
   to where it was just learnt).
+* A view seen turned (a camera's view template matched at a horizontal shift, relative rotation
+  ``r``, :mod:`ratslam.view_matcher`) is injected at the stored heading plus ``r``: every
+  association's θ' is shifted by ``round(r / θ' cell)`` cells (the nearest whole cell; a view
+  places the heading to within half a cell, as a cell is the pose cells' own resolution). Learning
+  on that tick undoes the shift, so a view's associations stay in the frame of the heading at which
+  it was first stored and a later rotation is always relative to that frame. ``r = 0`` (every
+  stream of scene numbers) shifts nothing.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -40,6 +49,7 @@ class LocalView:
         self.current = -1  # active view cell (-1: none)
         self.activity = 0.0  # V of the active view cell
         self.injected = 0.0  # total energy injected this tick
+        self.theta_shift = 0  # θ' cells the current view is turned by (its rotation, rounded)
         n = config.shape
         self._strides = np.array([n[1] * n[2], n[2], 1], dtype=np.int64)
 
@@ -60,11 +70,25 @@ class LocalView:
         self._assoc_tick.append(np.zeros(0, dtype=np.int64))
         return v
 
-    def inject(self, scene_id: int, tick: int, pose_cells: PoseCells) -> int:
+    def theta_cells(self, rotation: float) -> int:
+        """A relative rotation (rad) in whole θ' cells, rounded to the nearest (halves away from 0)."""
+        x = rotation / self.config.pose_cells.theta_cell_rad
+        return int(math.copysign(math.floor(abs(x) + 0.5), x))
+
+    def _turned(self, lin: np.ndarray, cells: int) -> np.ndarray:
+        """Linear pose-cell indices with θ' shifted by ``cells`` (wrapping)."""
+        n_theta = self.config.pose_cells.n_theta
+        th = lin % n_theta
+        return lin - th + (th + cells) % n_theta
+
+    def inject(self, scene_id: int, tick: int, pose_cells: PoseCells, rotation: float = 0.0) -> int:
         """Activate the view cell of ``scene_id`` (creating it if new) and, if it is familiar,
-        inject energy into the pose cells. Returns the active view cell (-1 for scene -1)."""
+        inject energy into the pose cells, at its associations' headings plus ``rotation`` (rad:
+        the view's rotation relative to its template, 0 for a scene number). Returns the active
+        view cell (-1 for scene -1)."""
         cfg = self.config.local_view
         self.injected = 0.0
+        self.theta_shift = self.theta_cells(rotation) if rotation != 0.0 else 0
         if scene_id < 0:
             self.current, self.activity = -1, 0.0
             return -1
@@ -77,7 +101,10 @@ class LocalView:
             old = self._assoc_tick[v] <= tick - cfg.min_age_ticks
             if np.any(old):
                 energy = (cfg.inject * self.activity) * self._assoc_w[v][old]
-                pose_cells.inject_linear(self._assoc_lin[v][old], energy)
+                lin = self._assoc_lin[v][old]
+                if self.theta_shift:
+                    lin = self._turned(lin, self.theta_shift)
+                pose_cells.inject_linear(lin, energy)
                 self.injected = float(energy.sum())
         return v
 
@@ -89,6 +116,10 @@ class LocalView:
         v = self.current
         if v >= 0 and self.activity > 0.0:
             lin, p = pose_cells.cells_at_least(cfg.learn_threshold)
+            if self.theta_shift:  # learnt in the frame of the view's template
+                lin = self._turned(lin, -self.theta_shift)
+                order = np.argsort(lin, kind="stable")
+                lin, p = lin[order], p[order]
             w = (cfg.learn_rate * self.activity) * p
             self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v] = merge_associations(
                 self._assoc_lin[v], self._assoc_w[v], self._assoc_tick[v], lin, w, tick

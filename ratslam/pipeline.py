@@ -40,7 +40,8 @@ class RatSLAM:
     yaw-rate bias search (:mod:`ratslam.yaw_bias_correction`); once it adopts a bias the
     transitions are corrected and every consumer gets the corrected yaw rate.
 
-    The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot`` and ``scene_id``.
+    The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot``, ``scene_id`` (and,
+    from a camera, the view's rotation relative to its template).
     """
 
     def __init__(self, config: RatSLAMConfig | None = None):
@@ -56,16 +57,20 @@ class RatSLAM:
         self._yaw_bias = YawBiasCorrection(self._config)
 
     # ------------------------------------------------------------------ stepping
-    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
+    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float = 0.0) -> None:
         """Advance one tick: ``dt`` seconds, ``v_trans`` m/s, ``v_rot`` rad/s, ``scene_id``
-        (int, -1 = nothing recognisable)."""
+        (int, -1 = nothing recognisable) and ``view_rotation`` (rad: a camera view's rotation
+        relative to its template, :mod:`ratslam.view_matcher`; the view's energy is injected at the
+        template's heading plus it; 0 for scene numbers)."""
         k = self._tick  # step index of this tick
         scene_id = int(scene_id)
         self._check_tick(dt, v_trans, v_rot, scene_id)
+        if not math.isfinite(view_rotation):
+            raise ValueError(f"step: view_rotation must be a finite number of radians, got {view_rotation!r}")
         v_rot = self._unbiased(dt, v_trans, v_rot, scene_id)
         pc = self.pose_cells
         old_peak = pc.peak
-        self.local_view.inject(scene_id, k, pc)
+        self.local_view.inject(scene_id, k, pc, view_rotation)
         pc.step(v_trans * dt, (v_rot + self._bias) * dt)
         self.local_view.learn(k, pc)
         new_peak = pc.peak

@@ -121,6 +121,19 @@ PUBLISHED: dict[str, Reading] = {
     "yaw_bias.revisit_sigma_xy_m": _inert(1.0 / math.sqrt(6.0)),
     "yaw_bias.revisit_sigma_heading_deg": _inert(90.0 / math.sqrt(6.0)),
     "yaw_bias.settle_turn_deg": _inert(0.0),
+    # --- the view-template matcher (camera streams only)
+    "view.crop_top": _scale("the camera's image: what to crop is a property of the robot's camera"),
+    "view.crop_bottom": _scale("the camera's image"),
+    "view.crop_left": _scale("the camera's image"),
+    "view.crop_right": _scale("the camera's image"),
+    "view.template_width": _scale("template size: the paper gives none; set per camera"),
+    "view.template_height": _scale("template size: set per camera"),
+    "view.field_of_view_deg": _scale("the camera's field of view (the paper's robot: 50 deg)"),
+    "view.max_shift_deg": _scale("rotation searched: set per camera"),
+    "view.match_threshold": Reading(0.04, SILENT, "new-or-seen threshold of the matcher: no value given"),
+    "view.global_normalisation": Reading(False, TEXT, "a sum of absolute differences, no normalisation"),
+    "view.patch_normalisation_radius": Reading(0, TEXT, "a sum of absolute differences, no normalisation"),
+    "view.mean_prefilter": _scale("an exact bound: the same matches either way, only faster"),
 }
 """Every field of :class:`RatSLAMConfig` by dotted path: the published preset's reading."""
 

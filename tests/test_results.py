@@ -50,11 +50,14 @@ def test_replay_metrics_round_trip_with_and_without_ground_truth(tmp_path):
     assert not bare.has_ground_truth and bare.ate is None and bare.loop_closures_proposed is not None
     assert "multiple_representations" not in json.loads((out / "metrics.json").read_text())["variants"]["replay"]
     assert "No ground truth" in (out / "report.md").read_text()
-    # a damaged trajectory makes the report a one-line error, not a traceback
+    # the report is redrawn from maps.npz alone (the trajectories are not needed); a damaged
+    # maps.npz makes it a one-line error, not a traceback
     from harness.report import ReportError, write_report
 
     (tmp_path / "replay" / "trajectories" / "odometry.tum").write_text("1 2 3\n")
-    with pytest.raises(ReportError, match="odometry.tum: TUM lines need 8 columns"):
+    write_report(tmp_path / "replay")
+    (tmp_path / "replay" / "maps.npz").write_bytes(b"PK\x03\x04 not a zip")
+    with pytest.raises(ReportError, match=r"maps\.npz: cannot be read"):
         write_report(tmp_path / "replay")
 
 

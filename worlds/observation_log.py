@@ -2,7 +2,11 @@
 
 Header ``t,dt,v_trans,v_rot,scene_id`` and optionally the ground-truth columns
 ``gt_x,gt_y,gt_theta,false_positive`` (the pose's three together; ``false_positive`` may be left
-out, a log with ground truth then has no tick labelled a false positive). Reading validates
+out, a log with ground truth then has no tick labelled a false positive). A camera log has an
+``image`` column instead of ``scene_id``: each tick's image file (PNG or JPEG), its path relative
+to the log file; its scene numbers are -1 until a view matcher has turned the images into template
+numbers (``harness.camera_stream.match_camera_log``). An optional ``view_rotation`` column (rad)
+carries each view's rotation relative to its template (``RatSLAM.step``'s ``view_rotation``). Reading validates
 columns, types, finite values and monotonic time, and reports a problem as one line naming the
 file, the line, the column and what is wrong (:class:`ObservationLogError`). Writing is atomic
 (temporary file, then rename).
@@ -22,6 +26,10 @@ from .errors import InputError
 from .files import atomic_write_text, read_text
 
 REQUIRED_COLUMNS = ("t", "dt", "v_trans", "v_rot", "scene_id")
+IMAGE_COLUMN = "image"
+"""A camera log's column in place of ``scene_id``: image files relative to the log."""
+ROTATION_COLUMN = "view_rotation"
+"""Optional: each view's rotation relative to its template (rad)."""
 GROUND_TRUTH_COLUMNS = ("gt_x", "gt_y", "gt_theta", "false_positive")
 GROUND_TRUTH_POSE = GROUND_TRUTH_COLUMNS[:3]  # needed together; false_positive may be left out
 _INT_COLUMNS = {"scene_id", "false_positive"}
@@ -54,6 +62,8 @@ class ObservationLog:
     gt_y: np.ndarray | None = None
     gt_theta: np.ndarray | None = None
     false_positive: np.ndarray | None = None
+    image: np.ndarray | None = None  # camera log: image paths relative to the log (str objects)
+    view_rotation: np.ndarray | None = None  # rad, relative to the matched template
 
     def __len__(self) -> int:
         return len(self.t)
@@ -76,6 +86,11 @@ class ObservationLog:
 
     def columns(self) -> dict[str, np.ndarray]:
         cols = {c: getattr(self, c) for c in REQUIRED_COLUMNS}
+        if self.image is not None:  # a camera log: the images in place of the scene numbers
+            cols = {(IMAGE_COLUMN if c == "scene_id" else c): v for c, v in cols.items()}
+            cols[IMAGE_COLUMN] = self.image
+        if self.view_rotation is not None:
+            cols[ROTATION_COLUMN] = self.view_rotation
         if self.has_ground_truth:
             cols.update({c: getattr(self, c) for c in GROUND_TRUTH_COLUMNS})
         return cols
@@ -97,6 +112,8 @@ class ObservationLog:
 
 
 def _format_column(name: str, values: np.ndarray) -> list[str]:
+    if name == IMAGE_COLUMN:
+        return [str(v) for v in values]
     if name in _INT_COLUMNS:
         return [str(int(v)) for v in values]
     return [repr(float(v)) for v in values]
@@ -109,13 +126,16 @@ def _parse(path: Path, text: str) -> ObservationLog:
         raise ObservationLogError(f"{path}: empty file (expected header {','.join(REQUIRED_COLUMNS)})")
     header = [h.strip() for h in rows[0]]
     header[0] = header[0].lstrip("\ufeff")  # a byte-order mark (spreadsheets' "CSV UTF-8")
-    known = set(REQUIRED_COLUMNS) | set(GROUND_TRUTH_COLUMNS)
+    known = set(REQUIRED_COLUMNS) | set(GROUND_TRUTH_COLUMNS) | {IMAGE_COLUMN, ROTATION_COLUMN}
     for h in header:
         if h not in known:
             raise ObservationLogError(f"{path}: header: unknown column {h!r} (allowed: {', '.join(sorted(known))})")
     if len(set(header)) != len(header):
         raise ObservationLogError(f"{path}: header: repeated column name")
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    camera = IMAGE_COLUMN in header
+    if camera and "scene_id" in header:
+        raise ObservationLogError(f"{path}: header: a camera log has {IMAGE_COLUMN} instead of scene_id, not both")
+    missing = [c for c in REQUIRED_COLUMNS if c not in header and not (camera and c == "scene_id")]
     if missing:
         raise ObservationLogError(f"{path}: header: missing column(s) {', '.join(missing)}")
     gt_present = [c for c in GROUND_TRUTH_COLUMNS if c in header]
@@ -128,13 +148,18 @@ def _parse(path: Path, text: str) -> ObservationLog:
     data = rows[1:]
     if not data:
         raise ObservationLogError(f"{path}: no observations after the header")
-    values = {h: np.empty(len(data), dtype=np.int64 if h in _INT_COLUMNS else float) for h in header}
+    values = {
+        h: np.empty(len(data), dtype=object if h == IMAGE_COLUMN else np.int64 if h in _INT_COLUMNS else float)
+        for h in header
+    }
     for i, row in enumerate(data):
         line = i + 2
         if len(row) != len(header):
             raise ObservationLogError(f"{path}: line {line}: expected {len(header)} fields, got {len(row)}")
         for h, cell in zip(header, row):
             values[h][i] = _parse_cell(path, line, h, cell.strip())
+    if camera:
+        values["scene_id"] = np.full(len(data), -1, dtype=np.int64)  # until the images are matched
     _check_semantics(path, values)
     fp = values.get("false_positive")
     if fp is None and gt_present:
@@ -149,10 +174,16 @@ def _parse(path: Path, text: str) -> ObservationLog:
         gt_y=values.get("gt_y"),
         gt_theta=values.get("gt_theta"),
         false_positive=None if fp is None else fp.astype(bool),
+        image=values.get(IMAGE_COLUMN),
+        view_rotation=values.get(ROTATION_COLUMN),
     )
 
 
 def _parse_cell(path, line, column, cell):
+    if column == IMAGE_COLUMN:
+        if not cell:
+            raise ObservationLogError(f"{path}: line {line}, column {column}: empty (an image file is needed)")
+        return cell
     if column in _INT_COLUMNS:
         n = parse_int(cell)
         if n is None:

@@ -86,6 +86,43 @@ class SceneSpec:
 
 
 @dataclass(frozen=True)
+class CameraSpec:
+    """The simulated camera (:mod:`worlds.camera`): a greyscale image rendered by casting one ray
+    per column against the walls.
+
+    Columns are evenly spaced in bearing over ``fov_deg`` (the forward camera; the panoramic one
+    covers 360 degrees with ``panoramic_width`` columns), rows evenly spaced in elevation over
+    ``vfov_deg``. Walls are ``wall_height`` tall seen from ``eye_height``; floor and ceiling are
+    plain. Each wall is cut into panels of ``panel_width`` metres, each panel showing one of
+    ``motifs`` seeded patterns (``plain_fraction`` of them plain), so places alias as real
+    corridors do. ``same_as`` pairs of rectangles ``[src, dst]`` give the walls in ``dst`` the
+    appearance of the walls in ``src`` (``None``: the world's ``scenes.lookalikes``).
+    """
+
+    width: int = 64  # columns of the forward camera, one ray each
+    height: int = 16  # rows
+    fov_deg: float = 50.0  # horizontal field of view of the forward camera (the paper's robot)
+    panoramic_width: int = 128  # columns of the panoramic (360 degree) camera
+    vfov_deg: float = 30.0  # vertical field of view
+    eye_height: float = 1.0  # m above the floor
+    wall_height: float = 2.0  # m
+    max_range: float = 50.0  # m; a ray that hits nothing shows only floor and ceiling
+    shading_distance: float = 6.0  # m: brightness falls as 1 / (1 + distance / shading_distance)
+    noise: float = 0.0  # std of Gaussian sensor noise per pixel (image values in [0, 1])
+    lighting_amplitude: float = 0.0  # brightness gain 1 + amplitude * sin(2 pi t / period)
+    lighting_period_s: float = 600.0  # s
+    texture_seed: int = 0  # fixes the motifs and which panel shows which (the world's look)
+    motifs: int = 6  # patterns the panels are drawn from (a small set: places alias)
+    panel_width: float = 1.0  # m of wall per panel
+    plain_fraction: float = 0.5  # share of panels that are plain wall
+    same_as: tuple | None = None  # ((src_rect, dst_rect), ...); None = scenes.lookalikes
+
+    def lookalike_regions(self, scenes: SceneSpec) -> tuple:
+        """The rectangle pairs whose walls look alike (``same_as``, or the scenes' look-alikes)."""
+        return scenes.lookalikes if self.same_as is None else self.same_as
+
+
+@dataclass(frozen=True)
 class World:
     """A validated world: geometry, route network and simulation defaults."""
 
@@ -105,6 +142,7 @@ class World:
     robot: RobotSpec = field(default_factory=RobotSpec)
     odometry: OdometrySpec = field(default_factory=OdometrySpec)
     scenes: SceneSpec = field(default_factory=SceneSpec)
+    camera: CameraSpec = field(default_factory=CameraSpec)
 
     @property
     def dt(self) -> float:
@@ -132,6 +170,7 @@ _TOP_KEYS = {
     "sim",
     "odometry",
     "scenes",
+    "camera",
 }
 _REQUIRED = ("name", "size", "start", "walls", "route")
 
@@ -295,6 +334,7 @@ def _parse(path, raw: dict) -> World:
         slip_fraction=odo_t.number("slip_fraction", OdometrySpec.slip_fraction, minimum=0.0, maximum=1.0),
     )
     scenes = _parse_scenes(top)
+    camera = _parse_camera(top)
 
     world = World(
         name=name,
@@ -313,6 +353,7 @@ def _parse(path, raw: dict) -> World:
         robot=robot,
         odometry=odometry,
         scenes=scenes,
+        camera=camera,
     )
     _check_consistency(path, world)
     return world
@@ -415,6 +456,44 @@ def _parse_scenes(top: _Reader) -> SceneSpec:
     )
 
 
+def _parse_camera(top: _Reader) -> CameraSpec:
+    """The optional ``[camera]`` table (every key optional; defaults in :class:`CameraSpec`)."""
+    t = top.table_of("camera")
+    t.check_keys(set(CameraSpec.__dataclass_fields__))
+    d = CameraSpec()
+    same_as = None
+    if "same_as" in t.table:
+        pairs = []
+        for i, pair in enumerate(t.list_of("same_as")):
+            if not (isinstance(pair, list) and len(pair) == 2):
+                t.fail(f"same_as[{i}]", "must be a pair of rectangles [[x0,y0,x1,y1], [x0,y0,x1,y1]]")
+            pairs.append((_rect(t, pair[0], f"same_as[{i}][0]"), _rect(t, pair[1], f"same_as[{i}][1]")))
+        same_as = tuple(pairs)
+    wall_height = t.number("wall_height", d.wall_height, positive=True)
+    eye_height = t.number("eye_height", d.eye_height, positive=True)
+    if eye_height >= wall_height:
+        t.fail("eye_height", f"must be below wall_height ({wall_height:g} m), got {eye_height:g}")
+    return CameraSpec(
+        width=t.integer("width", d.width, minimum=4),
+        height=t.integer("height", d.height, minimum=2),
+        fov_deg=t.number("fov_deg", d.fov_deg, positive=True, maximum=360.0),
+        panoramic_width=t.integer("panoramic_width", d.panoramic_width, minimum=4),
+        vfov_deg=t.number("vfov_deg", d.vfov_deg, positive=True, maximum=170.0),
+        eye_height=eye_height,
+        wall_height=wall_height,
+        max_range=t.number("max_range", d.max_range, positive=True),
+        shading_distance=t.number("shading_distance", d.shading_distance, positive=True),
+        noise=t.number("noise", d.noise, minimum=0.0, maximum=1.0),
+        lighting_amplitude=t.number("lighting_amplitude", d.lighting_amplitude, minimum=0.0, maximum=0.99),
+        lighting_period_s=t.number("lighting_period_s", d.lighting_period_s, positive=True),
+        texture_seed=t.integer("texture_seed", d.texture_seed, minimum=0),
+        motifs=t.integer("motifs", d.motifs, minimum=2),
+        panel_width=t.number("panel_width", d.panel_width, positive=True),
+        plain_fraction=t.number("plain_fraction", d.plain_fraction, minimum=0.0, maximum=1.0),
+        same_as=same_as,
+    )
+
+
 MAX_SCENE_CELLS = 10_000_000
 """More scene cells than this (size / cell_size squared) is a unit mistake, not a world."""
 MAX_TICKS = 100_000_000
@@ -477,6 +556,14 @@ def _check_bounds(path, w: World):
                 )
         if not (math.isclose(src[2] - src[0], dst[2] - dst[0]) and math.isclose(src[3] - src[1], dst[3] - dst[1])):
             raise WorldFileError(path, f"scenes.lookalikes[{i}]", "the two regions must have the same size")
+    for i, (src, dst) in enumerate(w.camera.same_as or ()):
+        for k, r in enumerate((src, dst)):
+            if not _rect_inside(r, w.size):
+                raise WorldFileError(
+                    path, f"camera.same_as[{i}][{k}]", f"{list(r)} is outside the world's size {list(w.size)}"
+                )
+        if not (math.isclose(src[2] - src[0], dst[2] - dst[0]) and math.isclose(src[3] - src[1], dst[3] - dst[1])):
+            raise WorldFileError(path, f"camera.same_as[{i}]", "the two regions must have the same size")
 
 
 def _check_consistency(path, w: World):
