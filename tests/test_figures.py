@@ -33,8 +33,40 @@ KNOWN_FAILURES = {
 
 
 # The same claims judged for RatSLAM as published (RatSLAMConfig.published(), run beside the
-# defaults on the same streams): those it fails here, with the measured cause (docs/fidelity.md).
-PUBLISHED_FAILURES: dict[tuple[str, str], str] = {}
+# defaults on the same streams): those it fails here, with the measured cause (docs/fidelity.md,
+# reports/fidelity: each departure switched on alone over the paper and removed alone from the
+# defaults; the mechanisms counted against ground truth). Strict: the day one holds, the suite says so.
+_LINKS = (
+    "the paper's transitions assume the robot stands at the re-entered experience, and eq 9's sum "
+    "re-enters one 20-40 deg away in heading, so links carry that heading (p90 28 deg on fig7)"
+)
+_FALSE = "eq 9's sum and acting on every tick's view re-enter places on one-tick false positives by heading alone"
+_LOOKALIKE = "re-entries wherever the pose cells say: look-alike rooms B and C re-entered 19 m away (669 false)"
+_BENT = "false loop closures where the biased pose cells drift onto an aliased scene (31 / 33 / 3 false re-entries)"
+PUBLISHED_FAILURES: dict[tuple[str, str], str] = {
+    ("fig7", "experience_map_consistent"): f"map 1.05 m: {_LINKS}; {_FALSE}",
+    ("fig7", "wheel_errors_map_consistent"): f"map 1.05 m: {_LINKS}; {_FALSE}",
+    ("fig7", "wheel_errors_map_beats_odometry"): f"map 1.05 m against odometry 1.23 m: {_LINKS}",
+    ("fig8", "experience_map_consistent"): f"map 1.53 m: {_BENT}; {_LINKS}",
+    ("fig8", "pose_cells_bent"): "the map (1.53 m) is bent as much as the pose cells' path (1.19 m): " + _BENT,
+    ("fig8", "only_orientation_differs"): f"map 1.53 m: {_BENT}",
+    ("fig8", "odometric_experience_map"): f"map 1.53 m with the bias in the odometry: {_LINKS}",
+    ("fig8", "odometric_ratio_ratslam"): f"map 1.53 m against odometry 3.21 m: {_LINKS}",
+    ("fig9", "experience_map_consistent"): f"map 1.62 m: {_BENT}; {_LINKS}",
+    ("fig9", "pose_cells_bent"): "the map (1.62 m) is bent as much as the pose cells' path (1.92 m): " + _BENT,
+    ("fig9", "only_orientation_differs"): f"map 1.62 m: {_BENT}",
+    ("fig10", "experience_map_consistent"): f"map 2.53 m: {_BENT}; {_LINKS}",
+    ("fig10", "pose_cells_bent"): "the map (2.53 m) is bent as much as the pose cells' path (2.84 m): " + _BENT,
+    ("fig10", "only_orientation_differs"): f"map 2.53 m: {_BENT}",
+    ("fig11", "g_h_two_pose_cell_loops"): KNOWN_FAILURES[("fig11", "g_h_two_pose_cell_loops")],
+    ("fig11", "g_h_overlap_in_experience_map"): "lap centres 1.68 m apart in the map: " + _LINKS,
+    ("fig11", "experience_map_consistent"): f"map 12.98 m: 41 false re-entries (34 on heading alone); {_LINKS}",
+    ("fig13", "experience_map_consistent"): f"map 2.54 m: {_LINKS} (p90 38 deg); {_FALSE}",
+    ("fig13", "wheel_errors_map_beats_odometry"): f"map 2.54 m against odometry 0.57 m: {_LINKS}",
+    ("fig4", "experience_map_consistent"): f"map 6.83 m: {_LOOKALIKE}; {_LINKS}",
+    ("plaza1", "experience_map_improves"): f"map 13.2 m against odometry 1.47 m: {_LINKS}; {_FALSE}",
+    ("plaza2", "experience_map_improves"): f"map 5.94 m against odometry 15.9 m (needs 5x): {_LINKS}",
+}
 
 
 def _marks(figure: str, claim: str, failures: dict[tuple[str, str], str] = KNOWN_FAILURES) -> list:
