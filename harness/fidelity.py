@@ -20,7 +20,9 @@ Usage::
 
     python -m harness.fidelity run --out reports/fidelity/runs.csv [--workers 2]
     python -m harness.fidelity scenes --out reports/fidelity/scenes.csv
-    python -m harness.fidelity table reports/fidelity/runs.csv
+    python -m harness.fidelity table reports/fidelity/runs.csv [--column online_ate_m]
+    python -m harness.fidelity mechanisms reports/fidelity/runs.csv --figure fig7 [--configs ...]
+    python -m harness.fidelity plot reports/fidelity/runs.csv --out reports/fidelity/ablation.png
 """
 
 from __future__ import annotations
@@ -364,16 +366,16 @@ def _job(args: tuple[str, int, tuple[str, ...] | None, float | None]) -> list[di
 
 
 def jobs(
-    duration: float | None = None, split_long: int = 2
+    duration: float | None = None, split_long: int = 3
 ) -> list[tuple[str, int, tuple[str, ...] | None, float | None]]:
-    """The study's jobs, longest first; the long streams' configurations split in ``split_long``."""
-    names = tuple(configurations(RatSLAMConfig()))
+    """The study's jobs: the 15-minute streams first, then the long ones with their
+    configurations split in ``split_long`` jobs (each simulates its stream)."""
     out: list[tuple[str, int, tuple[str, ...] | None, float | None]] = []
-    for fig in ("fig4", "fig11"):
-        for k in range(split_long):
-            out.append((fig, STREAMS[fig][0], names[k::split_long], duration))
     for fig in ("fig7", "fig13", "fig8", "fig9", "fig10"):
         out += [(fig, s, None, duration) for s in STREAMS[fig]]
+    names = tuple(configurations(RatSLAMConfig()))
+    for fig in ("fig11", "fig4"):
+        out += [(fig, STREAMS[fig][0], names[k::split_long], duration) for k in range(split_long)]
     return out
 
 
@@ -405,16 +407,25 @@ def scene_variants(world_name: str) -> dict[str, Any]:
 
 def _scene_job(args: tuple[str, int, str, float | None, bool]) -> list[dict[str, Any]]:
     figure, seed, variant, duration, no_fp = args
-    world = scene_variants(get_figure(figure).world or "")[variant]
     fig = get_figure(figure)
-    log = simulate(world, duration=fig.duration if duration is None else duration, seed=seed,
-                   bias_deg_s=0.0, fp_rate=0.0 if no_fp else fig.fp_rate)  # fmt: skip
     all_cfgs = configurations(figure_base(figure))
-    names = ("published", "defaults", "published+offset_transitions", "published+view_confirm_ticks")
+    names = ["published", "defaults", "published+offset_transitions", "published+view_confirm_ticks"]
+    if variant == "no_views":  # pure path integration: the pose cells' gain without any view's pull
+        log = figure_stream(figure, seed, duration)
+        log = dataclasses.replace(log, scene_id=np.full(len(log), -1, dtype=log.scene_id.dtype))
+        names = ["published", "published+trans_gain"]
+    else:
+        world = scene_variants(fig.world or "")[variant]
+        log = simulate(world, duration=fig.duration if duration is None else duration, seed=seed,
+                       bias_deg_s=0.0, fp_rate=0.0 if no_fp else fig.fp_rate)  # fmt: skip
     label = variant + ("+no_fp" if no_fp else "")
     rows = run_configs(log, {n: all_cfgs[n] for n in names}, {"figure": figure, "seed": seed, "scenes": label})
     print(f"done scenes {label} {figure} seed {seed}", file=sys.stderr, flush=True)
     return rows
+
+
+SCENE_JOBS = [("cells_0.3m", False), ("clean", False), ("clean", True)]
+"""The scene-model variants run on every seed of the small loop (and ``no_views`` on seed 0)."""
 
 
 # ------------------------------------------------------------------------------------- tables
@@ -456,6 +467,86 @@ def tables(rows: list[dict[str, str]], column: str = "map_ate_m") -> str:
     return "\n".join(out)
 
 
+MECHANISM_COLUMNS = [
+    ("reentries", "re-entries"),
+    ("false_reentries", "false (> 1.5 m)"),
+    ("heading_only", "E_xy = 0"),
+    ("heading_only_false", "E_xy = 0, false"),
+    ("one_tick", "on a 1-tick scene"),
+    ("one_tick_false", "1-tick, false"),
+    ("fp_scene", "on a false positive"),
+    ("mid_snap", "< 50 ticks after a snap"),
+    ("mid_snap_false", "after a snap, false"),
+]
+MECHANISM_LENGTHS = [
+    ("heading_only_dist_m", "E_xy = 0: true distance (m)"),
+    ("link_err_reentry_m", "re-entry link error (m)"),
+    ("link_err_create_m", "new-experience link error (m)"),
+    ("pc_gain", "pose cells / odometry"),
+]
+
+
+def mechanism_table(rows: list[dict[str, str]], figure: str, configs: list[str], scenes: str = "world") -> str:
+    """Markdown: per configuration, the switch counts of :func:`mechanisms` summed over the seeds
+    and its lengths as the median over the seeds."""
+    mine = [r for r in rows if r["figure"] == figure and r["scenes"] == scenes]
+    head = ["configuration", "map ATE (m)"] + [h for _, h in MECHANISM_COLUMNS] + [h for _, h in MECHANISM_LENGTHS]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for c in configs:
+        rs = [r for r in mine if r["config"] == c]
+        if not rs:
+            continue
+        cells = [c, _summary([float(r["map_ate_m"]) for r in rs])]
+        cells += [str(sum(int(r[k]) for r in rs)) for k, _ in MECHANISM_COLUMNS]
+        for k, _ in MECHANISM_LENGTHS:
+            v = [float(r[k]) for r in rs if r[k] not in ("", "nan")]
+            cells.append(f"{np.median(v):.3f}" if v else "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def plot(rows: list[dict[str, str]], out: Path) -> None:
+    """PNG: per switch, the map ATE of the small loop and the open plan (median, range over the
+    seeds) with the departure on top of the published preset and removed from the defaults, beside
+    the preset and the defaults themselves (log scale)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sw = switches()
+    fig, axes = plt.subplots(1, 2, figsize=(13, 6), sharey=True)
+    for ax, mode in zip(axes, ("on top of published", "removed from defaults")):
+        for k, (figure, colour) in enumerate((("fig7", "tab:blue"), ("fig13", "tab:orange"))):
+            mine = [r for r in rows if r["figure"] == figure and r["scenes"] == "world"]
+            for i, s in enumerate(sw):
+                if mode.startswith("on"):
+                    config = f"published{'-' if s.local_view else '+'}{s.name}"
+                else:
+                    config = f"defaults-{s.name}"
+                v = [float(r["map_ate_m"]) for r in mine if r["config"] == config]
+                if not v:
+                    continue
+                y = i + (k - 0.5) * 0.3
+                ax.plot([min(v), max(v)], [y, y], color=colour, lw=2)
+                ax.plot(np.median(v), y, "o", color=colour, label=figure if i == 0 else None)
+            for ref, style in (("published", "--"), ("defaults", ":")):
+                v = [float(r["map_ate_m"]) for r in mine if r["config"] == ref]
+                if v:
+                    ax.axvline(np.median(v), color=colour, ls=style, lw=1)
+        ax.set_xscale("log")
+        ax.set_title(f"{mode} (dashed: published, dotted: defaults)")
+        ax.set_xlabel("experience-map ATE (m), median and range over seeds 0-4")
+        ax.legend(loc="lower right")
+    axes[0].set_yticks(range(len(sw)))
+    axes[0].set_yticklabels([s.label + (" off" if s.local_view else "") for s in sw])
+    axes[0].invert_yaxis()
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m harness.fidelity", description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -468,16 +559,32 @@ def main(argv: list[str] | None = None) -> int:
     t = sub.add_parser("table")
     t.add_argument("csv", type=Path)
     t.add_argument("--column", default="map_ate_m")
+    m = sub.add_parser("mechanisms")
+    m.add_argument("csv", type=Path)
+    m.add_argument("--figure", default="fig7")
+    m.add_argument("--scenes", default="world")
+    m.add_argument("--configs", nargs="*", default=None, help="default: every configuration of the figure")
+    pl = sub.add_parser("plot")
+    pl.add_argument("csv", type=Path)
+    pl.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
     if args.cmd == "table":
         print(tables(_read(args.csv), args.column))
+        return 0
+    if args.cmd == "mechanisms":
+        data = _read(args.csv)
+        configs = args.configs or list(dict.fromkeys(r["config"] for r in data if r["figure"] == args.figure))
+        print(mechanism_table(data, args.figure, configs, args.scenes))
+        return 0
+    if args.cmd == "plot":
+        plot(_read(args.csv), args.out)
         return 0
     if args.cmd == "run":
         todo: list[Any] = [j for j in jobs(args.duration) if args.figures is None or j[0] in args.figures]
         fn: Any = _job
     else:
-        todo = [("fig7", s, v, args.duration, fp) for v in ("cells_0.3m", "clean") for fp in (False, True)
-                for s in STREAMS["fig7"] if v == "clean" or not fp]  # fmt: skip
+        todo = [("fig7", s, v, args.duration, fp) for v, fp in SCENE_JOBS for s in STREAMS["fig7"]]
+        todo.append(("fig7", 0, "no_views", args.duration, False))
         fn = _scene_job
     parts = args.out.with_suffix(".parts")  # one CSV per job: a killed study resumes where it stopped
     parts.mkdir(parents=True, exist_ok=True)
