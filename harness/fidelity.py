@@ -46,7 +46,7 @@ from worlds import ObservationLog, load_world, simulate
 from worlds.files import atomic_open
 
 from .figures import get_figure
-from .metrics import ate_rmse
+from .metrics import ate_rmse, wrap_angle
 from .runner import dead_reckon
 from .stream import step_stream
 
@@ -229,6 +229,11 @@ def mechanisms(probe: Probe, peak_metres: np.ndarray, snapped: np.ndarray, log: 
     true_rel = _between(gt[first[links[:, 0]]], gt[first[links[:, 1]], :2])
     meas = np.stack((lk_d * np.cos(lk_th), lk_d * np.sin(lk_th)), axis=1)
     link_err = np.hypot(*(meas - true_rel).T)
+    true_phi = gt[first[links[:, 1]], 2] - gt[first[links[:, 0]], 2]
+    phi = probe.experience_map.link_column("phi")
+    link_phi_err = np.degrees(np.abs(wrap_angle(phi - true_phi)))
+    linking = (sw[:, 8] >= 0) & ~false  # true re-entries that made a link (a loop closed)
+    robot_vs_place = np.degrees(np.abs(wrap_angle(gt[tick, 2] - gt[first[to], 2])))
     made_at = {int(e[8]): int(e[1]) for e in ev if e[8] >= 0}
     at_reentry = np.array([i for i, kind in made_at.items() if kind == 1], dtype=int)
     at_true_reentry = np.array(
@@ -239,6 +244,9 @@ def mechanisms(probe: Probe, peak_metres: np.ndarray, snapped: np.ndarray, log: 
 
     def med(a: np.ndarray) -> float:
         return float(np.median(a)) if len(a) else float("nan")
+
+    def p90(a: np.ndarray) -> float:
+        return float(np.percentile(a, 90)) if len(a) else float("nan")
 
     return {
         "reentries": len(sw),
@@ -255,6 +263,13 @@ def mechanisms(probe: Probe, peak_metres: np.ndarray, snapped: np.ndarray, log: 
         "link_err_reentry_m": med(link_err[at_true_reentry]),
         "link_err_reentry_all_m": med(link_err[at_reentry]),
         "link_err_create_m": med(link_err[at_create]),
+        "place_only": int((sw[:, 7] == 0.0).sum()),
+        "reentry_offset_p90_m": p90(dist[linking]),
+        "reentry_heading_diff_p90_deg": p90(robot_vs_place[linking]),
+        "link_err_reentry_p90_m": p90(link_err[at_true_reentry]),
+        "link_phi_err_reentry_deg": med(link_phi_err[at_true_reentry]),
+        "link_phi_err_reentry_p90_deg": p90(link_phi_err[at_true_reentry]),
+        "link_phi_err_create_deg": med(link_phi_err[at_create]),
         "pc_gain": pose_cell_gain(peak_metres, snapped, log, probe.config),
     }
 
@@ -324,6 +339,8 @@ COLUMNS = [
     "snaps", "reentries", "false_reentries", "heading_only", "heading_only_false", "heading_only_dist_m",
     "one_tick", "one_tick_false", "fp_scene", "fp_scene_false", "mid_snap", "mid_snap_false",
     "link_err_reentry_m", "link_err_reentry_all_m", "link_err_create_m", "pc_gain", "wall_s",
+    "place_only", "reentry_offset_p90_m", "reentry_heading_diff_p90_deg", "link_err_reentry_p90_m",
+    "link_phi_err_reentry_deg", "link_phi_err_reentry_p90_deg", "link_phi_err_create_deg",
 ]  # fmt: skip
 
 
@@ -472,6 +489,7 @@ MECHANISM_COLUMNS = [
     ("false_reentries", "false (> 1.5 m)"),
     ("heading_only", "E_xy = 0"),
     ("heading_only_false", "E_xy = 0, false"),
+    ("place_only", "E_theta = 0"),
     ("one_tick", "on a 1-tick scene"),
     ("one_tick_false", "1-tick, false"),
     ("fp_scene", "on a false positive"),
@@ -482,6 +500,12 @@ MECHANISM_LENGTHS = [
     ("heading_only_dist_m", "E_xy = 0: true distance (m)"),
     ("link_err_reentry_m", "re-entry link error (m)"),
     ("link_err_create_m", "new-experience link error (m)"),
+    ("link_err_reentry_p90_m", "re-entry link error p90 (m)"),
+    ("link_phi_err_reentry_deg", "re-entry link heading error (deg)"),
+    ("link_phi_err_reentry_p90_deg", "re-entry link heading error p90 (deg)"),
+    ("link_phi_err_create_deg", "new-experience link heading error (deg)"),
+    ("reentry_offset_p90_m", "robot vs place at a linking re-entry p90 (m)"),
+    ("reentry_heading_diff_p90_deg", "robot vs place heading at a linking re-entry p90 (deg)"),
     ("pc_gain", "pose cells / odometry"),
 ]
 
@@ -580,7 +604,7 @@ def main(argv: list[str] | None = None) -> int:
         plot(_read(args.csv), args.out)
         return 0
     if args.cmd == "run":
-        todo: list[Any] = [j for j in jobs(args.duration) if args.figures is None or j[0] in args.figures]
+        todo: list[Any] = jobs(args.duration)
         fn: Any = _job
     else:
         todo = [("fig7", s, v, args.duration, fp) for v, fp in SCENE_JOBS for s in STREAMS["fig7"]]
@@ -588,7 +612,7 @@ def main(argv: list[str] | None = None) -> int:
         fn = _scene_job
     parts = args.out.with_suffix(".parts")  # one CSV per job: a killed study resumes where it stopped
     parts.mkdir(parents=True, exist_ok=True)
-    names = {f"{i:02d}_{j[0]}_{j[1]}": j for i, j in enumerate(todo)}
+    names = {f"{i:02d}_{j[0]}_{j[1]}": j for i, j in enumerate(todo) if args.figures is None or j[0] in args.figures}
     with ProcessPoolExecutor(max_workers=max(1, min(args.workers, 2))) as pool:
         futures = {pool.submit(fn, j): parts / f"{n}.csv" for n, j in names.items()
                    if not (parts / f"{n}.csv").exists()}  # fmt: skip
