@@ -22,6 +22,7 @@ Usage::
     python -m harness.fidelity scenes --out reports/fidelity/scenes.csv
     python -m harness.fidelity table reports/fidelity/runs.csv [--column online_ate_m]
     python -m harness.fidelity mechanisms reports/fidelity/runs.csv --figure fig7 [--configs ...]
+    python -m harness.fidelity scene-table reports/fidelity/runs.csv reports/fidelity/scenes.csv
     python -m harness.fidelity plot reports/fidelity/runs.csv --out reports/fidelity/ablation.png
 """
 
@@ -529,6 +530,28 @@ def mechanism_table(rows: list[dict[str, str]], figure: str, configs: list[str],
     return "\n".join(out)
 
 
+SCENE_CONFIGS = ["published", "defaults", "published+offset_transitions", "published+view_confirm_ticks"]
+
+
+def scene_table(runs: list[dict[str, str]], scenes: list[dict[str, str]]) -> str:
+    """Markdown: the small loop's map ATE (median [range] over the seeds) per scene model, for the
+    configurations the scene-model runs step, with the published preset's switches on one-tick
+    scenes, its false re-entries and the heading offset of its linking re-entries."""
+    rows = [r for r in runs if r["figure"] == "fig7" and r["scenes"] == "world"] + [
+        r for r in scenes if r["figure"] == "fig7" and r["scenes"] != "no_views"
+    ]
+    head = [*SCENE_CONFIGS, "published: re-entries on 1-tick scenes", "false", "heading offset p90 (deg)"]
+    out = ["| scene model | " + " | ".join(head) + " |", "|" + "---|" * (len(head) + 1)]
+    for model in dict.fromkeys(r["scenes"] for r in rows):
+        mine = [r for r in rows if r["scenes"] == model]
+        pub = [r for r in mine if r["config"] == "published"]
+        cells = [_summary([float(r["map_ate_m"]) for r in mine if r["config"] == c]) for c in SCENE_CONFIGS]
+        cells += [str(sum(int(r["one_tick"]) for r in pub)), str(sum(int(r["false_reentries"]) for r in pub))]
+        cells.append(f"{np.median([float(r['reentry_heading_diff_p90_deg']) for r in pub]):.1f}")
+        out.append(f"| {model} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def plot(rows: list[dict[str, str]], out: Path) -> None:
     """PNG: per switch, the map ATE of the small loop and the open plan (median, range over the
     seeds) with the departure on top of the published preset and removed from the defaults, beside
@@ -559,12 +582,13 @@ def plot(rows: list[dict[str, str]], out: Path) -> None:
                 if v:
                     ax.axvline(np.median(v), color=colour, ls=style, lw=1)
         ax.set_xscale("log")
-        ax.set_title(f"{mode} (dashed: published, dotted: defaults)")
+        ax.set_title(mode)
         ax.set_xlabel("experience-map ATE (m), median and range over seeds 0-4")
         ax.legend(loc="lower right")
     axes[0].set_yticks(range(len(sw)))
     axes[0].set_yticklabels([s.label + (" off" if s.local_view else "") for s in sw])
     axes[0].invert_yaxis()
+    fig.suptitle("Experience-map ATE per departure (vertical lines: the published preset dashed, the defaults dotted)")
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=90)
@@ -583,6 +607,9 @@ def main(argv: list[str] | None = None) -> int:
     t = sub.add_parser("table")
     t.add_argument("csv", type=Path)
     t.add_argument("--column", default="map_ate_m")
+    st = sub.add_parser("scene-table")
+    st.add_argument("runs", type=Path)
+    st.add_argument("scenes", type=Path)
     m = sub.add_parser("mechanisms")
     m.add_argument("csv", type=Path)
     m.add_argument("--figure", default="fig7")
@@ -594,6 +621,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.cmd == "table":
         print(tables(_read(args.csv), args.column))
+        return 0
+    if args.cmd == "scene-table":
+        print(scene_table(_read(args.runs), _read(args.scenes)))
         return 0
     if args.cmd == "mechanisms":
         data = _read(args.csv)
