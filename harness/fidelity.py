@@ -383,17 +383,18 @@ def _job(args: tuple[str, int, tuple[str, ...] | None, float | None]) -> list[di
     return rows
 
 
-def jobs(
-    duration: float | None = None, split_long: int = 3
-) -> list[tuple[str, int, tuple[str, ...] | None, float | None]]:
-    """The study's jobs: the 15-minute streams first, then the long ones with their
-    configurations split in ``split_long`` jobs (each simulates its stream)."""
+SPLIT = {"fig11": 3, "fig4": 4}
+"""The long streams' configurations split over this many jobs (each simulates its stream)."""
+
+
+def jobs(duration: float | None = None) -> list[tuple[str, int, tuple[str, ...] | None, float | None]]:
+    """The study's jobs: the 15-minute streams first, then the long ones split (:data:`SPLIT`)."""
     out: list[tuple[str, int, tuple[str, ...] | None, float | None]] = []
     for fig in ("fig7", "fig13", "fig8", "fig9", "fig10"):
         out += [(fig, s, None, duration) for s in STREAMS[fig]]
     names = tuple(configurations(RatSLAMConfig()))
     for fig in ("fig11", "fig4"):
-        out += [(fig, STREAMS[fig][0], names[k::split_long], duration) for k in range(split_long)]
+        out += [(fig, STREAMS[fig][0], names[k :: SPLIT[fig]], duration) for k in range(SPLIT[fig])]
     return out
 
 
