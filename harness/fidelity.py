@@ -585,7 +585,7 @@ def plot(rows: list[dict[str, str]], out: Path) -> None:
         ax.set_xscale("log")
         ax.set_title(mode)
         ax.set_xlabel("experience-map ATE (m), median and range over seeds 0-4")
-        ax.legend(loc="lower right")
+        ax.legend(loc="lower left" if mode.startswith("on") else "lower right")
     axes[0].set_yticks(range(len(sw)))
     axes[0].set_yticklabels([s.label + (" off" if s.local_view else "") for s in sw])
     axes[0].invert_yaxis()
