@@ -22,8 +22,10 @@ Usage::
     python -m harness.fidelity scenes --out reports/fidelity/scenes.csv
     python -m harness.fidelity table reports/fidelity/runs.csv [--column online_ate_m]
     python -m harness.fidelity mechanisms reports/fidelity/runs.csv --figure fig7 [--configs ...]
+    python -m harness.fidelity closures --figure fig7 --seed 0 --scenes clean+no_fp --config published
     python -m harness.fidelity scene-table reports/fidelity/runs.csv reports/fidelity/scenes.csv
     python -m harness.fidelity plot reports/fidelity/runs.csv --out reports/fidelity/ablation.png
+    python -m harness.fidelity report reports/fidelity
 """
 
 from __future__ import annotations
@@ -447,6 +449,35 @@ SCENE_JOBS = [("cells_0.3m", False), ("clean", False), ("clean", True)]
 """The scene-model variants run on every seed of the small loop (and ``no_views`` on seed 0)."""
 
 
+def closures(figure: str, seed: int, scenes: str, config: str, duration: float | None = None) -> str:
+    """Markdown: each re-entry of one run that made a link (a loop closed), against ground truth:
+    the tick, the experience and when it was made, eq 9's terms, the robot's and the
+    experience's true headings and their distance. ``scenes``: "world" or a scene-model variant
+    (:func:`scene_variants`, ``+no_fp`` for no false positives)."""
+    fig = get_figure(figure)
+    if scenes == "world":
+        log = figure_stream(figure, seed, duration)
+    else:
+        variant, no_fp = scenes.removesuffix("+no_fp"), scenes.endswith("+no_fp")
+        world = scene_variants(fig.world or "")[variant]
+        log = simulate(world, duration=fig.duration if duration is None else duration, seed=seed,
+                       bias_deg_s=0.0, fp_rate=0.0 if no_fp else fig.fp_rate)  # fmt: skip
+    probe = Probe(configurations(figure_base(figure))[config])
+    step_stream(log, {config: probe})
+    gt, first = log.ground_truth(), probe.experience_first_tick
+    out = [
+        "| tick | experience (made at tick) | E_xy | E_theta | robot heading (deg) "
+        "| experience heading (deg) | distance (m) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for k, kind, _, j, _, _, e_xy, e_th, link in probe.events:
+        if kind == 1 and link >= 0:
+            h_robot, h_exp = np.degrees(gt[k, 2]), np.degrees(gt[first[j], 2])
+            d = math.hypot(*(gt[k, :2] - gt[first[j], :2]))
+            out.append(f"| {k} | {j} ({first[j]}) | {e_xy:.2f} | {e_th:.2f} | {h_robot:.0f} | {h_exp:.0f} | {d:.2f} |")
+    return "\n".join(out)
+
+
 # ------------------------------------------------------------------------------------- tables
 def _read(path: Path) -> list[dict[str, str]]:
     with open(path, newline="") as f:
@@ -553,6 +584,112 @@ def scene_table(runs: list[dict[str, str]], scenes: list[dict[str, str]]) -> str
     return "\n".join(out)
 
 
+REPORT_HEAD = """\
+# Fidelity study: each departure of the defaults from the published RatSLAM, alone
+
+What this is and what the numbers mean: [docs/fidelity.md](../../docs/fidelity.md) (the study, the
+measured causes, the scene-model question). This report holds every table, generated from the
+committed CSVs:
+
+- `runs.csv`: one row per (figure, seed, configuration) of the ablation: map and online ATE, the
+  odometry's ATE, sizes, and the mechanism columns measured by the probe (below).
+- `scenes.csv`: the small loop's published preset, defaults and two single departures on changed
+  scene models (finer cells, a clean scene model with and without false positives) and with no
+  views at all (pure path integration: the pose cells' own gain).
+- `ablation.png`: the small loop and the open plan, each departure on top of the published
+  preset and removed from the defaults (median and range over seeds 0-4).
+
+Reproduce (2 worker processes; the run is resumable, one CSV per job beside `runs.csv`):
+
+```bash
+python -m harness.fidelity run --out reports/fidelity/runs.csv --workers 2
+python -m harness.fidelity scenes --out reports/fidelity/scenes.csv --workers 2
+python -m harness.fidelity table reports/fidelity/runs.csv [--column online_ate_m]
+python -m harness.fidelity mechanisms reports/fidelity/runs.csv --figure FIG
+python -m harness.fidelity scene-table reports/fidelity/runs.csv reports/fidelity/scenes.csv
+python -m harness.fidelity closures --figure fig7 --seed 0 --scenes world --config published
+python -m harness.fidelity plot reports/fidelity/runs.csv --out reports/fidelity/ablation.png
+python -m harness.fidelity report reports/fidelity       # this report, from the two CSVs
+```
+
+Configurations: `published` = `RatSLAMConfig.published(base)`, `defaults` = `base` (the figure's
+grid and path-integration bias on the defaults); `published+X` = the preset with departure X
+alone on, `defaults-X` = the defaults with X alone at the preset's value; for the local-view
+readings (on in both) `published-X` / `defaults-X` switch them off (`fatigue`:
+`local_view.fatigue_rate = 1e-9`; `min_age`: `local_view.min_age_ticks = 1`);
+`published+reentry_fusion+gate` = the fusion and the odometry gate together (the gate acts only
+with the fusion).
+
+![ablation](ablation.png)
+
+## Experience-map ATE (m), median [range] over the seeds
+
+`python -m harness.fidelity table reports/fidelity/runs.csv`
+"""
+
+REPORT_MECHANISMS = """\
+
+## Mechanisms, per configuration
+
+`python -m harness.fidelity mechanisms reports/fidelity/runs.csv --figure FIG`. Counts are summed
+over the seeds, lengths are the median over the seeds of each run's statistic. A re-entry is a
+switch to a known experience; false: the experience stands for a place more than 1.5 m from
+where the robot truly was; E_xy = 0 / E_theta = 0: eq 9's place / heading term of the re-entered
+experience was zero (only the sum form admits these); 1-tick scene: the scene number was reported
+for one tick only; after a snap: within 50 ticks of one; link errors: a transition's position
+(m) and heading (deg) against the true relative pose of its two experiences' places, for links
+made at true re-entries and at new experiences; robot vs place: how far the robot truly was from
+the re-entered experience's place (position, heading) at re-entries that made a link; pose cells
+/ odometry: the peak's displacement over the odometry's in 1 s windows without a snap.
+
+"""
+
+REPORT_SCENES = """\
+## The scene model
+
+`python -m harness.fidelity scene-table reports/fidelity/runs.csv reports/fidelity/scenes.csv`
+(small loop, seeds 0-4; "world": as shipped, 1 m cells and 4 heading sectors, 10% aliased, 10%
+blank, flicker at borders, 0.2% false positives per tick; `cells_0.3m`: 0.3 m cells and 8 sectors;
+`clean`: no aliasing, blanks or flicker; `clean+no_fp`: and no false positives)
+
+"""
+
+
+def write_report(directory: Path) -> None:
+    """``report.md`` of ``directory`` from its ``runs.csv`` and ``scenes.csv`` (the plot is
+    :func:`plot`; the loop-closure tables rerun two 15-minute streams)."""
+    runs, scenes = _read(directory / "runs.csv"), _read(directory / "scenes.csv")
+    figures = [f for f in STREAMS if any(r["figure"] == f for r in runs)]
+    parts = [REPORT_HEAD, tables(runs), "\n\n## Online ATE (m), median [range] over the seeds\n",
+             "`python -m harness.fidelity table reports/fidelity/runs.csv --column online_ate_m`",
+             tables(runs, "online_ate_m"), "\n", REPORT_MECHANISMS]  # fmt: skip
+    for fig in figures:
+        parts += [
+            f"### {fig}\n",
+            mechanism_table(runs, fig, list(dict.fromkeys(r["config"] for r in runs if r["figure"] == fig))),
+            "",
+        ]
+    parts += [REPORT_SCENES, scene_table(runs, scenes), ""]
+    for model in ("cells_0.3m", "clean", "clean+no_fp"):
+        parts += [f"### {model}\n", mechanism_table(scenes, "fig7", SCENE_CONFIGS, model), ""]
+    parts += [
+        "### The published preset's loop closures, fig7 seed 0\n",
+        "`python -m harness.fidelity closures --seed 0 --scenes clean+no_fp` (a clean scene model without false "
+        "positives), then `--scenes world` (as shipped): each re-entry that made a link, against ground truth "
+        "(headings and distance from the truth at the tick and where the experience was made).\n",
+        closures("fig7", 0, "clean+no_fp", "published"),
+        "",
+        closures("fig7", 0, "world", "published"),
+        "",
+        "### No views (pure path integration, fig7 seed 0)\n",
+        "| configuration | pose cells / odometry |",
+        "|---|---|",
+    ]
+    parts += [f"| {r['config']} | {float(r['pc_gain']):.3f} |" for r in scenes if r["scenes"] == "no_views"]
+    with atomic_open(directory / "report.md", "w") as out:
+        out.write("\n".join(parts) + "\n")
+
+
 def plot(rows: list[dict[str, str]], out: Path) -> None:
     """PNG: per switch, the map ATE of the small loop and the open plan (median, range over the
     seeds) with the departure on top of the published preset and removed from the defaults, beside
@@ -608,6 +745,11 @@ def main(argv: list[str] | None = None) -> int:
     t = sub.add_parser("table")
     t.add_argument("csv", type=Path)
     t.add_argument("--column", default="map_ate_m")
+    cl = sub.add_parser("closures")
+    cl.add_argument("--figure", default="fig7")
+    cl.add_argument("--seed", type=int, default=0)
+    cl.add_argument("--scenes", default="world")
+    cl.add_argument("--config", default="published")
     st = sub.add_parser("scene-table")
     st.add_argument("runs", type=Path)
     st.add_argument("scenes", type=Path)
@@ -616,12 +758,17 @@ def main(argv: list[str] | None = None) -> int:
     m.add_argument("--figure", default="fig7")
     m.add_argument("--scenes", default="world")
     m.add_argument("--configs", nargs="*", default=None, help="default: every configuration of the figure")
+    rp = sub.add_parser("report")
+    rp.add_argument("dir", type=Path)
     pl = sub.add_parser("plot")
     pl.add_argument("csv", type=Path)
     pl.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
     if args.cmd == "table":
         print(tables(_read(args.csv), args.column))
+        return 0
+    if args.cmd == "closures":
+        print(closures(args.figure, args.seed, args.scenes, args.config))
         return 0
     if args.cmd == "scene-table":
         print(scene_table(_read(args.runs), _read(args.scenes)))
@@ -630,6 +777,9 @@ def main(argv: list[str] | None = None) -> int:
         data = _read(args.csv)
         configs = args.configs or list(dict.fromkeys(r["config"] for r in data if r["figure"] == args.figure))
         print(mechanism_table(data, args.figure, configs, args.scenes))
+        return 0
+    if args.cmd == "report":
+        write_report(args.dir)
         return 0
     if args.cmd == "plot":
         plot(_read(args.csv), args.out)
