@@ -168,10 +168,10 @@ class Probe(RatSLAM):
         self.events: list[tuple[int, int, int, int, int, int, float, float, int]] = []
         self._scene, self._run, self._snap_tick, self._k = -1, 0, -(10**9), 0
 
-    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
+    def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float = 0.0) -> None:
         em = self.experience_map
         size, current, links = em.size, em.current, len(em.link_column("d"))
-        super().step(dt, v_trans, v_rot, scene_id)
+        super().step(dt, v_trans, v_rot, scene_id, view_rotation)
         k = self._k
         self._k += 1
         self._run = self._run + 1 if scene_id == self._scene else 1
