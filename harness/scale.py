@@ -5,102 +5,11 @@ tuned to the simulated indoor robot: 0.3 m/s at 7 Hz (0.043 m per tick), scene n
 persist over about 1 m, odometry noise 0.01 m/s and 0.01 rad/s per tick. A replayed log may come
 from a vehicle at another speed, tick rate and label granularity. :func:`derive_configs` measures
 the log -- from ``dt``, ``v_trans``, ``v_rot`` and ``scene_id`` only, never the ground truth --
-and scales the distance- and tick-dependent parameters.
-
-Measured quantities (:func:`measure_log`):
-  step: median moving speed (ticks faster than 10% of the 95th-percentile speed) times the
-    median ``dt``: metres per tick.
-  label length: distance-weighted median of the distance driven while one scene number is
-    reported on consecutive ticks (each run weighted by its length, so the short runs that
-    flicker at cell borders weigh little; speeds above SPIKE_FACTOR x the 95th percentile count
-    as that bound, so one encoder spike cannot make a run of labels hundreds of metres long).
-    Simulated 1 m scene cells: 0.85-0.91 m; the Plaza
-    logs' 2 m cells: 1.88-2.00 m.
-  odometry noise: per-tick white noise on the speed and the yaw rate, 1.4826 MAD of the
-    first differences / sqrt(2) (the simulator's 0.01 m/s and 0.01 rad/s read 0.011). This is
-    the rates' tick-to-tick roughness; it equals the noise that integrates into drift only
-    for white noise on smooth rates, as in the simulator. A real vehicle's rates are rough
-    because it moves so (Plaza 1 and 2: the estimate grows with the averaging window instead
-    of staying flat), and its drift is not white: on Plaza 1 (measured against ground truth,
-    analysis only) the dead-reckoned heading has no drift at all (0.00 deg rms over 100 m)
-    while the position errs 0.52-0.60 m rms over 50-100 m; the roughness reads 0.023 rad/s
-    and 0.029 m/s, which as white noise means 5 deg of heading over 100 m and 0.13 m along
-    track. The pose graph then let every scene closure (2 m cells) bend the well-known
-    heading: keyframe ATE 1.58 / 1.49 / 1.37 m (seeds 0/1/2), worse than the odometry's 1.47.
-  revisit noise (:func:`revisit_noise`, only when the roughness is not the reference's): the
-    odometry noise that makes the dead-reckoned displacements between repeated scene onsets
-    most likely (maximum likelihood over the sqrt(2) ladder, aliased pairs a uniform outlier
-    component). A laddered roughness value inside the revisits' profile-likelihood support
-    (within 2 log-likelihood units of the maximum) is kept; one outside it is replaced by the
-    most likely value. Plaza 1: roughness x2.83 / x2 of 0.01, revisits x11.3 (support
-    x5.7-x11.3; seed 1: x0.008-x11.3, roughness kept) / x0.5 (x0.5-x0.7), so odometry.sigma_v_m_s
-    0.113 m/s (seed 1: 0.028) and odometry.sigma_w_rad_s 0.005 rad/s;
-    Plaza 2: roughness x5.66 / x2.83, revisits x0.008 (support x0.008-x22.6: not resolved, the
-    roughness kept) / x8 (x8-x8), so 0.057 m/s and 0.08 rad/s (its heading does drift,
-    8.7 deg per 100 m). Pose-graph ATE keyframes / online, seeds 0/1/2, with the roughness
-    noise -> with the revisit test: Plaza 1 1.58/1.49/1.37 -> 0.49/0.98/0.50 m and
-    1.07/1.85/1.73 -> 0.89/1.04/1.04 m (odometry 1.47 m); Plaza 2 0.50/0.48/0.48 ->
-    0.50/0.50/0.49 m and 1.71/1.73/1.69 -> 1.80/1.82/1.71 m (odometry 15.9 m). The revisits
-    are not consulted for a log whose roughness reads the reference noise (the simulator's):
-    there the pairs' scatter is dominated by the scene cells and the fit reads the yaw noise
-    low (small_loop x0.5, office_floor x1), so the simulator keeps exactly the defaults.
-
+and scales the distance- and tick-dependent parameters (:func:`measure_log`: metres per tick,
+label length, odometry roughness; :func:`revisit_noise`: the noise the revisits make most likely).
 Each ratio to the reference is rounded to the ladder of powers of sqrt(2) (:func:`ladder`), so
-a log within a factor 2**0.25 (0.84-1.19) of the reference gets the reference value exactly:
-the simulator's own streams get exactly the defaults. The rules:
-
-  Pose graph (scene factor s = label length / 0.9 m, laddered):
-    keyframes.distance_m = 0.5 m * s     (two keyframes per scene cell)
-    closures.sigma_xy_m  = s / sqrt(6) m (a closure is known to within one scene cell,
-                                          uniform over a cell of side s: s / sqrt(6) per axis)
-    closures.min_travel_m = 4 m * s
-    odometry.sigma_v_m_s, odometry.sigma_w_rad_s = 0.01 * laddered noise ratio, each replaced by
-                                 the revisits' most likely value if the revisits reject it (see above)
-  RatSLAM's yaw-rate bias search: yaw_bias.revisit_min_travel_m and revisit_sigma_xy_m as the
-    pose graph's closures.min_travel_m and sigma_xy_m (the same search, the same revisits).
-  RatSLAM (cells per tick c = laddered step / pose_cells.cell_size_m):
-    pose_cells.trans_gain: the lattice-lag compensation depends on c. Measured packet speed / applied
-      shift of the default network (straight runs, headings 0 and 35 deg): 0.96/0.95 at 0.17
-      cells per tick, 0.97/0.96 at 0.3, 0.99/0.97 at 0.4, 1.00/0.99 at 0.6, 1.00 at 0.8 and
-      1.0, 0.99 at 1.4. Gain 1.05 up to 0.2 cells per tick, 1.0 from 0.6, linear between.
-    pose_cells.cell_size_m: 0.25 m while the packet moves at most MAX_CELLS_PER_TICK (0.75) cells per tick;
-      above, the cell grows to keep 0.75. On straight runs the packet keeps up to 1.4 cells per
-      tick, but on a real drive it does not hold together: Plaza 2 (0.34 m per tick, laddered)
-      snaps 247 / 219 / 162 / 87 times in 4090 ticks at 1.37 / 1.0 / 0.75 / 0.6 cells per tick,
-      and each snap freezes the map for experience_map.snap_settle_ticks (92 experiences at 1.37, 158 at 0.75).
-      Map ATE, seed 0, with the re-entry fusion: 3.01 / 4.06 / 1.60 / 1.63 m (fusion off: 2.41 m
-      at 1.37; 1.37 m at 0.75). 0.75 leaves Plaza 1 (0.69 cells per tick) and the simulator
-      (0.17) at 0.25 m cells; bigger cells hurt Plaza 1 (below).
-    Re-entry fusion (RatSLAMConfig.reentry; on by default with the simulator's noise; rederived
-      only when the odometry noise departs from the reference, with the pose graph's
-      revisit-tested noise):
-      reentry.position_sigma_m = closures.sigma_xy_m (the pose graph's closure noise: one scene
-      cell), reentry.heading_sigma_deg = one heading cell / sqrt(12) (2.89 deg; measured pose-cell
-      heading error at Plaza re-entries 2.0-3.2 deg rms), reentry.odom_speed_noise_m_s /
-      odom_heading_noise_rad_s = odometry.sigma_v_m_s / sigma_w_rad_s. Measured in
-      docs/configuration.md (re-entry fusion): Plaza 1 experience map 1.33/1.62/1.77 ->
-      1.30/1.33/1.39 m (seeds 0/1/2; odometry 1.47 m).
-      reentry.chain_fixes = true: at a re-entry the prediction may carry the latest fix's error
-      rather than the odometry's since the place was last visited (ratslam.config), whichever
-      explains the innovation better. A vehicle's 2 m scene cells place a re-entry within a metre
-      while its odometry between two re-entries errs less; on the simulator's 1 m cells the pose
-      cells' re-entries are the better estimate and chaining costs accuracy (its defaults keep it
-      off). Measured, derived configurations, label seeds 0-7, online / experience-map ATE, not
-      chained -> chained: Plaza 1 (odometry 1.472 m) online 1.523 / 1.482 / 1.512 / 1.437 / 1.495
-      / 1.517 / 1.481 / 1.565 -> 1.466 / 1.453 / 1.437 / 1.368 / 1.447 / 1.465 / 1.448 / 1.482
-      (better on every seed), map 1.342 / 1.325 / 1.356 / 1.341 / 1.330 / 1.347 / 1.328 / 1.298
-      -> 1.328 / 1.330 / 1.342 / 1.329 / 1.319 / 1.335 / 1.321 / 1.281; Plaza 2 (odometry
-      15.94 m) online 2.528 / 2.474 / 2.518 / 2.236 / 2.717 / 3.109 / 2.304 / 2.700 -> 2.443 /
-      2.402 / 2.321 / 2.208 / 2.585 / 3.040 / 2.199 / 2.541 (better on every seed), map 0.939 /
-      1.054 / 1.062 / 0.807 / 1.229 / 0.916 / 0.784 / 0.951 -> 0.877 / 1.183 / 1.058 / 0.894 /
-      1.094 / 0.949 / 0.719 / 0.873 (mean 0.968 -> 0.956).
-  Everything else keeps its default, also the tick-based windows and the zones of influence,
-  because scaling them with the log did not help (measured on Plaza 1, experience-map ATE,
-  seeds 0 / 1, odometry 1.47 m; pose_cells.trans_gain 1.0 throughout): defaults 1.33 / 1.62 m;
-  local_view.min_age_ticks and experience_map.snap_settle_ticks kept in metres (15 and 11 ticks) 1.47 / 2.40 m; the
-  fatigue rates too 2.22 / 1.47 m; r_inf_cells 4 (1 m, half the 2 m scene) - / 5.47 m; pose
-  cells of 1.0 m (0.2 cells per tick, r_inf 2 m) 6.50 / - m, of 1.17 m 8.21 / - m (re-entries
-  within a 2 m zone carry heading offsets up to 20 deg, which rotate the map behind them).
+the simulator's own streams get exactly the defaults. The rules and the measurements behind them
+are in docs/derived-configurations.md.
 """
 
 from __future__ import annotations
