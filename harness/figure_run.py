@@ -14,7 +14,6 @@ import math
 import multiprocessing
 import os
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -28,6 +27,7 @@ from worlds.errors import InputError
 from worlds.files import atomic_open, write_tum
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
+from .budget import check_grid, check_ticks
 from .config_file import ConfigOverrides, write_config_toml
 from .evaluate import CLOSURE_TRUE_DISTANCE, evaluate_stream
 from .figures import ExtraMetrics, Figure, FigureError, Variant, evaluate_claims, get_figure
@@ -37,6 +37,7 @@ from .results import FigureInfo, RunResult, VariantConfig, VariantResult, WorldS
 from .run_dir import provenance, staged_directory
 from .runner import StreamResult, TickError, dead_reckon, run_stream
 from .scale import derive_configs
+from .workers import map_in_processes, warm_kernels
 
 if TYPE_CHECKING:
     from .recorder import StreamRecorder
@@ -45,7 +46,8 @@ RecorderFactory = Callable[[Path, World | None, ObservationLog, RatSLAMConfig, n
 """``(run directory, world or None, observation log, RatSLAM's configuration) -> StreamRecorder``
 (e.g. :func:`harness.recorder.recorder_factory`)."""
 
-REPORTS_DIR = Path("reports")
+REPORTS_DIR = Path("reports")  # the committed reports: regenerated only with an explicit out
+RUNS_DIR = Path("runs")  # default output: a fresh, git-ignored folder
 
 
 def lap_length(world: World, gt: np.ndarray) -> float | None:
@@ -281,7 +283,8 @@ def run_figure(
     config: ConfigOverrides | None = None,
 ) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
-    always runs) into ``out`` (default ``reports/<name>``). ``config`` (from a configuration
+    always runs) into ``out`` (default ``runs/<name>``; ``reports/<name>`` regenerates the committed
+    report). ``config`` (from a configuration
     file) is applied on top of each variant's own configuration.
 
     The variants are independent runs: with ``workers`` > 1 (default: one process per variant,
@@ -298,7 +301,7 @@ def run_figure(
     world = load_world(fig.world) if fig.world is not None else None
     seed = fig.seed if seed is None else int(seed)
     duration = fig.duration if duration is None else float(duration)
-    out = Path(out) if out else REPORTS_DIR / fig.name
+    out = Path(out) if out else RUNS_DIR / fig.name
     workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
     with staged_directory(out, _inputs(config)) as stage:
         jobs = []
@@ -308,8 +311,8 @@ def run_figure(
             jobs.append((vdir, fig.name, variant, world, duration, seed, show_progress, recorder_factory, config))
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
-            with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_pool_context()) as pool:
-                runs = list(pool.map(_variant_job, jobs))
+            warm_kernels()  # compiled once here, inherited by the forked workers
+            runs = map_in_processes(_variant_job, jobs, min(workers, len(jobs)), _pool_context())
         else:
             runs = [
                 _run_variant(vdir, fig, variant, world, duration, seed, show_progress, recorder_factory, config)
@@ -358,11 +361,13 @@ def replay(
     ratslam_config: RatSLAMConfig | None = None,
     gtsam_config: PoseGraphConfig | None = None,
     config: ConfigOverrides | None = None,
+    yes: bool = False,
 ) -> Path:
     """Replay a user's observation log through both systems into run directory ``out``
     (``config``, from a configuration file, on top of the given configurations or, where none is
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
-    and labels; the simulator's own streams get exactly the defaults)."""
+    and labels; the simulator's own streams get exactly the defaults). A grid or log beyond the
+    size budget (:mod:`harness.budget`) is refused before anything runs unless ``yes``."""
     log = ObservationLog.read_csv(log_path)
     name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
@@ -373,6 +378,8 @@ def replay(
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+    check_grid(str(config.source if config is not None and config.source else log_path), rs_cfg.shape, yes)
+    check_ticks(str(log_path), len(log), yes)
     out = Path(out)
     with staged_directory(out, (Path(log_path), *_inputs(config))) as stage, _named(log_path):
         result = run_single_stream(

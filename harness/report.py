@@ -17,6 +17,7 @@ from worlds.files import atomic_write_text, read_tum
 
 from . import plots
 from .results import RunResult, VariantResult
+from .run_dir import add_to_manifest
 
 PANELS = ("a_world.png", "b_pose_cells.png", "c_experience_map.png", "d_gtsam.png")
 
@@ -197,5 +198,7 @@ def write_report(run_dir, run: RunResult | None = None) -> Path:
     if not run_dir.is_dir():
         raise ReportError(f"{run_dir}: not a directory")
     run, maps = _load(run_dir, run)
-    panels = [p.name for p in write_panels(run_dir, run, maps)]
-    return atomic_write_text(run_dir / "report.md", render_markdown(run, panels))
+    written = write_panels(run_dir, run, maps)
+    report = atomic_write_text(run_dir / "report.md", render_markdown(run, [p.name for p in written]))
+    add_to_manifest(run_dir, [*written, report])  # a rebuilt report's files are the run's own
+    return report

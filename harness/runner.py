@@ -24,6 +24,9 @@ class TickError(InputError):
         super().__init__(f"tick {tick} (line {tick + 2} of the log): {problem}")
         self.tick, self.problem = tick, problem
 
+    def __reduce__(self):  # pickled back from a worker process with its own arguments
+        return (type(self), (self.tick, self.problem))
+
 
 def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
     """Integrate the logged odometry: poses (N, 3) after each tick, each tick's forward motion

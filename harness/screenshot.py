@@ -186,6 +186,9 @@ def main(argv=None) -> int:
     except ScreenshotError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
+    from .run_dir import add_to_manifest
+
+    add_to_manifest(Path(out["png"]).parent, [out["png"]])  # into a run directory: the run's own now
     problems = [f"{name}: {r}" for name, rs in out["views"].items() for r in rs]
     print(
         f"{out['png']} (tick {out['tick']}, {len(out['views'])} views"
