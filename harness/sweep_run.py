@@ -29,7 +29,7 @@ from worlds.files import atomic_write_text, read_json, read_text, write_json
 from .run_dir import OutputError, output_errors, remove_stale
 from .sweep_spec import AXES, SweepSpec, system_config
 from .sweep_task import run_one
-from .workers import pool, terminate, warm_kernels
+from .workers import pool, sigint_blocked, terminate, warm_kernels
 
 # BLAS and compiled-kernel threads per worker: every worker is one process on one core.
 _ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
@@ -121,7 +121,13 @@ class LocalExecutor(Executor):
         try:
             warm_kernels()  # compiled (and cached on disk) once, before the workers load them
             self._pool = pool(self.workers, multiprocessing.get_context("spawn"))
-            self._pool.submit(int, 0).result()  # start the workers while the environment is set
+            try:
+                with sigint_blocked():  # every worker started now, while the environment is set
+                    for started in [self._pool.submit(int, 0) for _ in range(self.workers)]:
+                        started.result()
+            except BaseException:
+                terminate(self._pool)
+                raise
         finally:
             for k, v in saved.items():
                 if v is None:

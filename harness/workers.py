@@ -10,8 +10,9 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -43,10 +44,29 @@ def die_with_parent(parent: int) -> None:
 
 def worker_init(parent: int) -> None:
     """Pool initializer: die with ``parent``; Ctrl-C (sent to the whole terminal's process group)
-    and SIGTERM are the parent's to handle, which then terminates the workers (no tracebacks)."""
+    and SIGTERM are the parent's to handle, which then terminates the workers (no tracebacks).
+    Workers start with SIGINT blocked (:func:`sigint_blocked`), so a Ctrl-C while one starts
+    is dropped here, never a traceback of its start-up."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     die_with_parent(parent)
+
+
+@contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """Block SIGINT in this thread while workers are started: they inherit the mask (also across
+    the exec of a spawned worker) until :func:`worker_init` ignores the signal and unblocks it.
+    A Ctrl-C meanwhile is held, not lost: it reaches this process when the block ends."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def pool(workers: int, mp_context) -> ProcessPoolExecutor:
@@ -75,7 +95,9 @@ def map_in_processes(fn: Callable[[Any], Any], jobs: Iterable[Any], workers: int
     are terminated before the exception goes on (no run keeps writing into a removed directory)."""
     ex = pool(workers, mp_context)
     try:
-        results = list(ex.map(fn, jobs))
+        with sigint_blocked():
+            pending = ex.map(fn, jobs)  # submits every job: the workers start here
+        results = list(pending)
     except BaseException:
         terminate(ex)
         raise

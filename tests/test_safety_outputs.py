@@ -102,7 +102,7 @@ def test_sweep_never_writes_into_a_users_folder(tmp_path):
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "report.md").write_text("my report")
-    _one_line(cli("sweep", str(spec), "--out", str(mine)), "not an earlier sweep directory")
+    _one_line(cli("sweep", str(spec), "--out", str(mine), cwd=tmp_path), "not an earlier sweep directory")
     assert sorted(p.name for p in mine.iterdir()) == ["report.md"]
     assert (mine / "report.md").read_text() == "my report"
 
