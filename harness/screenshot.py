@@ -75,6 +75,8 @@ def screenshot(
     rrd_path, png_path = Path(rrd_path).resolve(), Path(png_path).resolve()
     if not rrd_path.is_file():
         raise ScreenshotError(f"{rrd_path}: no such recording")
+    if png_path == rrd_path or png_path.suffix.lower() != ".png":
+        raise ScreenshotError(f"{png_path}: the screenshot must be a .png other than the recording")
     _check_vulkan()
     exe = _rerun_executable()
     port = _free_port()
