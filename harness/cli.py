@@ -17,6 +17,7 @@ import numpy as np
 from worlds import InputError, list_worlds, load_world
 
 from .log_output import check_writable
+from .run_dir import output_errors
 
 if typing.TYPE_CHECKING:
     from .figure_run import RatSLAMChoice
@@ -56,6 +57,7 @@ def _cmd_simulate(args) -> None:
         fp_rate=args.fp,
         show_progress=not args.quiet,
         camera=args.camera,
+        yes=args.yes,
     )
     images = f", {len(sim.log)} {args.camera} camera images in {sim.csv.stem}_images/" if args.camera else ""
     print(f"wrote {sim.csv} ({len(sim.log)} ticks, {sim.log.t[-1]:.0f} s simulated{images}) and {sim.png}")
@@ -67,8 +69,9 @@ def _cmd_run(args) -> None:
     from .figures import get_figure
     from .recorder import recorder_factory
 
-    get_figure(args.figure)  # unknown names fail before anything starts
+    fig = get_figure(args.figure)  # unknown names fail before anything starts
     config = read_config_file(args.config) if args.config else None
+    _check_figure_size(fig, config, args.duration, args.yes)
     out = run_figure(
         args.figure,
         out=args.out,
@@ -84,6 +87,24 @@ def _cmd_run(args) -> None:
     _print_run_summary(out)
 
 
+def _check_figure_size(fig, config, duration, yes: bool) -> None:
+    """A figure's pose-cell grid (with the configuration file's fields) and stream length against
+    the budget (:mod:`harness.budget`), before anything runs."""
+    from baselines import PoseGraphConfig
+    from ratslam import PoseCellConfig, RatSLAMConfig
+
+    from .budget import check_grid, check_ticks
+
+    nx, ny, nth = fig.grid
+    rs = RatSLAMConfig(pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth))
+    if config is not None:
+        rs, _ = config.apply(rs, PoseGraphConfig())
+    check_grid(config.source if config is not None and config.source else fig.name, rs.shape, yes)
+    duration = fig.duration if duration is None else duration
+    if fig.world is not None and duration is not None:
+        check_ticks(f"{fig.name}: --duration {duration:g}", duration * load_world(fig.world).tick_rate, yes)
+
+
 def _cmd_replay(args) -> None:
     from .config_file import read_config_file
     from .figure_run import replay
@@ -97,6 +118,7 @@ def _cmd_replay(args) -> None:
         recorder_factory=None if args.no_recording else recorder_factory,
         config=config,
         ratslam=_ratslam_choice(args.ratslam, config, "defaults"),
+        yes=args.yes,
     )
     _print_run_summary(out)
 
@@ -124,7 +146,8 @@ def _cmd_import_plaza(args) -> None:
 
     out = check_writable(args.out)
     log = load_plaza(args.name, seed=args.seed, fp_rate=args.fp, duration=args.duration)
-    log.write_csv(out)
+    with output_errors(out):
+        log.write_csv(out)
     speed = float(np.median(np.abs(log.v_trans)))
     print(
         f"wrote {out} ({len(log)} ticks, {log.t[-1] - log.t[0] + log.dt[0]:.0f} s, median speed "
@@ -137,7 +160,7 @@ def _cmd_import_tum(args) -> None:
     from worlds.real_data import PLAZA_SCENES
     from worlds.trajectory_import import import_tum
 
-    out = check_writable(args.out)
+    out = check_writable(args.out, inputs=(args.odometry, args.gt, args.labels))
     log = import_tum(
         args.odometry,
         ground_truth=args.gt,
@@ -150,7 +173,8 @@ def _cmd_import_tum(args) -> None:
 
 
 def _write_imported(log, out: Path) -> None:
-    log.write_csv(out)
+    with output_errors(out):
+        log.write_csv(out)
     seen = int((log.scene_id >= 0).sum())
     print(
         f"wrote {out} ({len(log)} ticks, {seen} with a scene number{', ground truth' if log.has_ground_truth else ''})"
@@ -161,7 +185,7 @@ def _cmd_import_rosbag(args) -> None:
     from worlds.bag_import import import_bag
     from worlds.real_data import PLAZA_SCENES
 
-    out = check_writable(args.out)
+    out = check_writable(args.out, inputs=(args.bag,))
     log = import_bag(
         args.bag,
         args.odom,
@@ -176,6 +200,11 @@ def _cmd_import_rosbag(args) -> None:
 
 
 def _cmd_report(args) -> None:
+    with output_errors(args.dir):
+        _report(args)
+
+
+def _report(args) -> None:
     if (Path(args.dir) / "runs.csv").is_file():
         from .sweep_report import rebuild_sweep_report
 
@@ -189,23 +218,23 @@ def _cmd_report(args) -> None:
 
 def _cmd_sweep(args) -> None:
     from .sweep_run import run_sweep
-    from .sweep_spec import read_sweep_spec
+    from .sweep_spec import check_sweep_size, read_sweep_spec
 
     spec = read_sweep_spec(args.spec)
-    n = len(spec.runs())
+    n = spec.run_count()  # counted, not expanded: a spec of a billion runs fails at once
     if n > spec.max_runs and not args.yes:
         raise CliError(
-            f"{args.spec}: max_runs: the spec expands to {n} runs, more than {spec.max_runs}; "
+            f"{args.spec}: max_runs: the spec expands to {n:,} runs, more than {spec.max_runs:,}; "
             "pass --yes to run them all"
         )
+    check_sweep_size(spec, args.yes)
     try:
         out = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler)
     except KeyboardInterrupt:
-        print(
-            f"ratslam-harness: interrupted; the completed runs are kept in {Path(args.out) / 'runs'}: "
-            "rerun the same command to finish the sweep",
-            file=sys.stderr,
-        )
+        runs = Path(args.out) / "runs"
+        kept = sum(1 for _ in runs.glob("*/result.json")) if runs.is_dir() else 0
+        where = f"the {kept} completed runs are kept in {runs}" if kept else "no run had completed"
+        print(f"ratslam-harness: interrupted; {where}: rerun the same command to finish the sweep", file=sys.stderr)
         raise SystemExit(130) from None
     print(f"sweep directory: {out}\n  runs:   {out / 'runs.csv'}\n  report: {out / 'report.md'}")
 
@@ -213,8 +242,13 @@ def _cmd_sweep(args) -> None:
 def _cmd_nav(args) -> None:
     from worlds.files import read_json
 
+    from .budget import check_goals, check_ticks
     from .nav_experiment import run_nav_experiment
 
+    world = load_world(args.world)
+    check_goals("--goals", args.goals, args.yes)
+    if args.exploration is not None:
+        check_ticks(f"--exploration {args.exploration:g}", args.exploration * world.tick_rate, args.yes)
     out = run_nav_experiment(
         args.world,
         out=args.out,
@@ -326,6 +360,14 @@ def _label_options(parser, labels_help: str) -> None:
     parser.add_argument("--seed", type=_seed, default=0, help="seed of synthesised flicker and false positives")
 
 
+def _yes_option(parser) -> None:
+    parser.add_argument(
+        "--yes",
+        action="store_true",
+        help="run even beyond the size budget (pose-cell grid, stream length, goals; see harness.budget)",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _OneLineParser(
         prog="ratslam-harness", description="RatSLAM experience mapping beside a GTSAM pose graph, on simulated worlds."
@@ -348,11 +390,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="write a camera log: each tick's rendered image (PNG, next to the log) instead of its scene number",
     )
     s.add_argument("--quiet", action="store_true", help="no progress output")
+    _yes_option(s)
     s.set_defaults(func=_cmd_simulate)
 
     r = sub.add_parser("run", help="run a paper figure end to end (simulate, both systems, report)")
     r.add_argument("figure", help="figure name (see `list`)")
-    r.add_argument("--out", help="run directory (default: reports/FIGURE)")
+    r.add_argument(
+        "--out", help="run directory (default: runs/FIGURE; --out reports/FIGURE regenerates the committed report)"
+    )
     r.add_argument("--seed", type=_seed, help="random seed (default: the figure's)")
     r.add_argument("--duration", type=_positive, help="simulated seconds (default: the figure's)")
     r.add_argument(
@@ -375,6 +420,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _ratslam_option(r, "both")
     r.add_argument("--quiet", action="store_true", help="no progress output")
+    _yes_option(r)
     r.set_defaults(func=_cmd_run)
 
     rp = sub.add_parser("replay", help="replay an observation log (CSV) through both systems")
@@ -387,6 +433,7 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     _ratslam_option(rp, "defaults")
     rp.add_argument("--quiet", action="store_true", help="no progress output")
+    _yes_option(rp)
     rp.set_defaults(func=_cmd_replay)
 
     imp = sub.add_parser("import", help="write an observation log (CSV) from recorded robot data")
@@ -436,7 +483,11 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--out", required=True, help="sweep directory (runs/, runs.csv, report.md)")
     sw.add_argument("--workers", type=_workers, help="local worker processes (default: one per core)")
     sw.add_argument("--scheduler", help="run on a Dask distributed cluster at this address (tcp://HOST:8786)")
-    sw.add_argument("--yes", action="store_true", help="run even if the spec expands to more than max_runs")
+    sw.add_argument(
+        "--yes",
+        action="store_true",
+        help="run even if the spec expands to more than max_runs, or its runs exceed the size budget",
+    )
     sw.set_defaults(func=_cmd_sweep)
 
     nv = sub.add_parser(
@@ -448,7 +499,7 @@ def build_parser() -> argparse.ArgumentParser:
     nv.add_argument("--seed", type=_seed, default=0, help="seed of the exploration and the goals (default 0)")
     nv.add_argument("--goals", type=int, default=50, help="goals driven to on each map (default 50)")
     nv.add_argument("--exploration", type=float, help="exploration, simulated seconds (default: the world's)")
-    nv.add_argument("--out", help="run directory (default: reports/nav_WORLD)")
+    nv.add_argument("--out", help="run directory (default: runs/nav_WORLD)")
     nv.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     mode = nv.add_mutually_exclusive_group()
     mode.add_argument(
@@ -472,6 +523,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the world's look-alike regions show their own scenes (as Fig 4's distinct_rooms variant)",
     )
     nv.add_argument("--quiet", action="store_true", help="no progress output")
+    _yes_option(nv)
     nv.set_defaults(func=_cmd_nav)
 
     rep = sub.add_parser("report", help="rebuild report.md and the PNG panels of a run or sweep directory")

@@ -15,7 +15,6 @@ import math
 import multiprocessing
 import os
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -30,6 +29,7 @@ from worlds.errors import InputError
 from worlds.files import atomic_open, write_tum
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
+from .budget import check_grid, check_ticks
 from .config_file import ConfigOverrides, write_config_toml
 from .evaluate import CLOSURE_TRUE_DISTANCE, evaluate_stream
 from .figures import ExtraMetrics, Figure, FigureError, Variant, evaluate_claims, get_figure
@@ -39,6 +39,7 @@ from .results import FigureInfo, RunResult, VariantConfig, VariantResult, WorldS
 from .run_dir import provenance, staged_directory
 from .runner import StreamResult, TickError, dead_reckon, run_stream
 from .scale import derive_configs
+from .workers import map_in_processes, warm_kernels
 
 if TYPE_CHECKING:
     from .recorder import StreamRecorder
@@ -47,7 +48,8 @@ RecorderFactory = Callable[[Path, World | None, ObservationLog, RatSLAMConfig, n
 """``(run directory, world or None, observation log, RatSLAM's configuration) -> StreamRecorder``
 (e.g. :func:`harness.recorder.recorder_factory`)."""
 
-REPORTS_DIR = Path("reports")
+REPORTS_DIR = Path("reports")  # the committed reports: regenerated only with an explicit out
+RUNS_DIR = Path("runs")  # default output: a fresh, git-ignored folder
 
 
 def lap_length(world: World, gt: np.ndarray) -> float | None:
@@ -393,8 +395,9 @@ def run_figure(
     camera: str | None = None,
 ) -> Path:
     """Run every variant of figure ``name`` (or only those named in ``variants``; the primary
-    always runs) into ``out`` (default ``reports/<name>``, ``reports/<name>_<camera>`` from a
-    camera). ``config`` (from a configuration file) is applied on top of each variant's own
+    always runs) into ``out`` (default ``runs/<name>``, ``runs/<name>_<camera>`` from a camera;
+    ``reports/<name>`` regenerates the committed report). ``config`` (from a configuration file) is
+    applied on top of each variant's own
     configuration. ``ratslam``: the project's defaults, the published algorithm, or both on each
     variant's stream (the default; the claims are judged for each, the published run's under
     ``published`` in metrics.json). ``camera`` ("forward" or "panoramic"): both systems see the
@@ -417,7 +420,7 @@ def run_figure(
     duration = fig.duration if duration is None else float(duration)
     if camera is not None and world is None:
         raise FigureError(f"{name}: a real data set has no simulated world to render (--camera)")
-    out = Path(out) if out else REPORTS_DIR / (fig.name if camera is None else f"{fig.name}_{camera}")
+    out = Path(out) if out else RUNS_DIR / (fig.name if camera is None else f"{fig.name}_{camera}")
     workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
     with staged_directory(out, _inputs(config)) as stage:
         jobs = []
@@ -441,8 +444,8 @@ def run_figure(
             )
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
-            with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=_pool_context()) as pool:
-                runs = list(pool.map(_variant_job, jobs))
+            warm_kernels()  # compiled once here, inherited by the forked workers
+            runs = map_in_processes(_variant_job, jobs, min(workers, len(jobs)), _pool_context())
         else:
             runs = [
                 _run_variant(
@@ -519,6 +522,7 @@ def replay(
     gtsam_config: PoseGraphConfig | None = None,
     config: ConfigOverrides | None = None,
     ratslam: RatSLAMChoice = "defaults",
+    yes: bool = False,
 ) -> Path:
     """Replay a user's observation log through both systems into run directory ``out``
     (``config``, from a configuration file, on top of the given configurations or, where none is
@@ -526,7 +530,8 @@ def replay(
     and labels; the simulator's own streams get exactly the defaults). A camera log's images are
     matched first (the effective ``view`` settings), its template numbers and rotations then
     replayed (:mod:`harness.camera_stream`). ``ratslam``: the project's defaults (the default),
-    the published algorithm, or both on the same stream."""
+    the published algorithm, or both on the same stream. A grid or log beyond the size budget
+    (:mod:`harness.budget`) is refused before anything runs unless ``yes``."""
     log = ObservationLog.read_csv(log_path)
     if log.image is not None:
         from .camera_stream import match_camera_log
@@ -544,6 +549,8 @@ def replay(
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+    check_grid(str(config.source if config is not None and config.source else log_path), rs_cfg.shape, yes)
+    check_ticks(str(log_path), len(log), yes)
     rs_cfg, alternatives, derivations = ratslam_settings(rs_cfg, ratslam, derivation)
     derivation = derivations[""]
     out = Path(out)

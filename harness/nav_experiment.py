@@ -59,7 +59,7 @@ from .recorder import C_EXP, C_GTSAM, C_PEAK, C_SNAP, Recorder, _SegmentBuffer, 
 from .run_dir import provenance, staged_directory
 from .runner import dead_reckon
 
-REPORTS_DIR = Path("reports")
+RUNS_DIR = Path("runs")  # default output: a fresh, git-ignored folder
 SUCCESS_CLAIM = 0.95  # RatSLAM reaches at least this share of the goals
 TIME_RATIO_CLAIM = 1.3  # RatSLAM's median time ratio is at most this
 
@@ -454,7 +454,7 @@ def run_nav_experiment(
     lookalikes: bool = True,
     ratslam_localise: bool = True,
 ) -> Path:
-    """Run the navigation experiment on ``world`` into ``out`` (default ``reports/nav_WORLD``);
+    """Run the navigation experiment on ``world`` into ``out`` (default ``runs/nav_WORLD``);
     ``exploration_s`` None: the world's duration; ``lookalikes=False``: the world's look-alike
     regions show their own scenes (as Fig 4's distinct_rooms variant); ``ratslam_localise``
     (default): navigate RatSLAM's explored map, fixed, by :mod:`ratslam.localisation`; False: with
@@ -463,7 +463,7 @@ def run_nav_experiment(
     _check(n_goals, exploration_s, seed)
     w = load_world(world)
     exploration = float(w.duration if exploration_s is None else exploration_s)
-    out = Path(out) if out else REPORTS_DIR / f"nav_{w.name}"
+    out = Path(out) if out else RUNS_DIR / f"nav_{w.name}"
     pg_config = PoseGraphConfig()
     rs_config = navigation_ratslam_config(pg_config)
     progress = _Progress(show_progress, w.dt)

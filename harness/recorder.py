@@ -37,13 +37,14 @@ Size and time at the defaults, measured with ``bench/bench_recorder.py``: a synt
 tick; the real Fig 4 run (office_floor, 9,000 s) 69 MB and 7.9 % of the run's wall time
 (targets: <= 300 MB, <= 25 %).
 
-The file is written under a temporary name next to ``path`` and moved into place by
-:meth:`Recorder.close` (atomic); :meth:`Recorder.abort` (or an exception inside a ``with``
-block) removes it instead.
+The file is written under a temporary name next to ``path`` (rerun's encoded stream, held in
+memory and written by this process at the end) and moved into place by :meth:`Recorder.close`
+(atomic); :meth:`Recorder.abort` (or an exception inside a ``with`` block) removes it instead.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import uuid
@@ -223,7 +224,15 @@ class Recorder(_ClosedOnSuccess):
         self.rec = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
         self.rec.set_log_time_enabled(False)  # only the tick and sim_time timelines
         self.rec.set_log_tick_enabled(False)
-        self.rec.save(self._tmp, default_blueprint=default_blueprint(self.grid_shape, world_bounds, navigation))
+        # The encoded stream is kept in memory (about the file's size) and written by this process
+        # at close (not rerun's file sink: a sink that fails on a full disk as it starts hangs
+        # ``rr.save`` uninterruptibly, rerun 0.41), so a write error is an ``OSError`` here and
+        # Ctrl-C always reaches Python. One read: a stream read in pieces repeats its footer.
+        self._stream = rr.binary_stream(recording=self.rec)
+        self.rec.send_blueprint(
+            default_blueprint(self.grid_shape, world_bounds, navigation), make_active=False, make_default=True
+        )
+        self._file = open(self._tmp, "wb")  # noqa: SIM115 (closed by close() or abort())
         self._closed = False
         self._lut = _viridis_lut()
         self._buffers = {
@@ -416,6 +425,11 @@ class Recorder(_ClosedOnSuccess):
         for buf in self._buffers.values():
             buf.send(self.rec)
 
+    def _drain(self) -> None:
+        data = self._stream.read(flush=True)
+        if data:
+            self._file.write(data)
+
     def finish_maps(self) -> None:
         """Log the maps as they are now at the last logged tick, unless that tick already has
         them (:meth:`close` does this; call it earlier if the systems change afterwards)."""
@@ -431,8 +445,9 @@ class Recorder(_ClosedOnSuccess):
             return self.path
         self.finish_maps()
         self.flush()
-        self.rec.flush()
         self.rec.disconnect()
+        self._drain()  # the whole stream at once: its footer indexes it from the file's start
+        self._file.close()
         self._closed = True
         os.replace(self._tmp, self.path)
         return self.path
@@ -442,6 +457,8 @@ class Recorder(_ClosedOnSuccess):
         if not self._closed:
             self._closed = True
             self.rec.disconnect()
+            with contextlib.suppress(OSError):  # the write that failed (a full disk) may fail again
+                self._file.close()
             Path(self._tmp).unlink(missing_ok=True)
 
 

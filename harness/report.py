@@ -17,6 +17,7 @@ from worlds.files import atomic_write_text, read_tum
 
 from . import plots
 from .results import ClaimResult, RunResult, VariantResult
+from .run_dir import add_to_manifest
 
 PUBLISHED = "published"  # the alternative RatSLAM run beside the defaults (harness.figure_run)
 
@@ -283,5 +284,9 @@ def write_report(run_dir, run: RunResult | None = None) -> Path:
     if not run_dir.is_dir():
         raise ReportError(f"{run_dir}: not a directory")
     run, maps = _load(run_dir, run)
-    panels = [p.relative_to(run_dir).as_posix() for p in write_panels(run_dir, run, maps)]
-    return atomic_write_text(run_dir / "report.md", render_markdown(run, panels))
+    written = write_panels(run_dir, run, maps)
+    report = atomic_write_text(
+        run_dir / "report.md", render_markdown(run, [p.relative_to(run_dir).as_posix() for p in written])
+    )
+    add_to_manifest(run_dir, [*written, report])  # a rebuilt report's files are the run's own
+    return report

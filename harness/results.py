@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Generic, TypeVar
+
+import numpy as np
 
 from worlds.errors import InputError
 from worlds.files import read_json, write_json
@@ -384,13 +387,22 @@ class RunResult:
         return out
 
     def write(self, path) -> Path:
-        """Write ``metrics.json`` at ``path`` (atomically)."""
-        return write_json(path, self.to_json())
+        """Write ``metrics.json`` at ``path`` (atomically). A value that is not a finite number
+        (an infinity or NaN: not JSON) is written as null, and ``non_finite`` says which and why."""
+        values: dict[str, str] = {}
+        doc = _finite_json(self.to_json(), "", values)
+        if values:
+            doc["non_finite"] = {
+                "reason": "not a finite number (an infinity or NaN is not JSON), written as null",
+                "values": values,
+            }
+        return write_json(path, doc)
 
     @classmethod
     def from_dict(cls, doc: dict[str, Any]) -> RunResult:
         """A parsed ``metrics.json`` document."""
         doc = dict(doc)
+        doc.pop("non_finite", None)  # which values are null for being non-finite (see write)
         figure, world = doc.pop("figure"), doc.pop("world", None)
         claims = doc.pop("claims", None)
         published = doc.pop("published", None)
@@ -437,3 +449,18 @@ class RunResult:
             return cls.from_dict(doc)
         except (KeyError, TypeError, AttributeError) as e:  # a missing, unknown or mistyped entry
             raise ResultsError(f"{path}: not a run's metrics ({type(e).__name__}: {e})") from None
+
+
+def _finite_json(value, where: str, non_finite: dict[str, str]):
+    """``value`` with every non-finite float replaced by None, its dotted path and value noted in
+    ``non_finite``."""
+    if isinstance(value, dict):
+        return {k: _finite_json(v, f"{where}.{k}" if where else str(k), non_finite) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_json(v, f"{where}[{i}]", non_finite) for i, v in enumerate(value)]
+    if isinstance(value, np.ndarray):
+        return _finite_json(value.tolist(), where, non_finite)
+    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
+        non_finite[where] = repr(float(value))
+        return None
+    return value

@@ -75,6 +75,8 @@ def screenshot(
     rrd_path, png_path = Path(rrd_path).resolve(), Path(png_path).resolve()
     if not rrd_path.is_file():
         raise ScreenshotError(f"{rrd_path}: no such recording")
+    if png_path == rrd_path or png_path.suffix.lower() != ".png":
+        raise ScreenshotError(f"{png_path}: the screenshot must be a .png other than the recording")
     _check_vulkan()
     exe = _rerun_executable()
     port = _free_port()
@@ -186,6 +188,9 @@ def main(argv=None) -> int:
     except ScreenshotError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
+    from .run_dir import add_to_manifest
+
+    add_to_manifest(Path(out["png"]).parent, [out["png"]])  # into a run directory: the run's own now
     problems = [f"{name}: {r}" for name, rs in out["views"].items() for r in rs]
     print(
         f"{out['png']} (tick {out['tick']}, {len(out['views'])} views"

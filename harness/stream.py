@@ -28,6 +28,9 @@ class TickError(InputError):
         super().__init__(f"tick {tick} (line {tick + 2} of the log): {problem}")
         self.tick, self.problem = tick, problem
 
+    def __reduce__(self):  # pickled back from a worker process with its own arguments
+        return (type(self), (self.tick, self.problem))
+
 
 @dataclass
 class Trace:

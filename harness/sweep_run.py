@@ -10,6 +10,7 @@ version), so a killed sweep restarted with the same command computes only what i
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -19,14 +20,16 @@ import shutil
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from pathlib import Path
 
 from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_json, read_text, write_json
 
+from .run_dir import OutputError, output_errors, remove_stale
 from .sweep_spec import AXES, SweepSpec, system_config
 from .sweep_task import run_one
+from .workers import pool, sigint_blocked, terminate, warm_kernels
 
 # BLAS and compiled-kernel threads per worker: every worker is one process on one core.
 _ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
@@ -117,8 +120,15 @@ class LocalExecutor(Executor):
         saved = {k: os.environ.get(k) for k in _ONE_THREAD}
         os.environ.update(_ONE_THREAD)  # inherited by the spawned workers, which import numpy afresh
         try:
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
-            self._pool.submit(int, 0).result()  # start the workers while the environment is set
+            warm_kernels()  # compiled (and cached on disk) once, before the workers load them
+            self._pool = pool(self.workers, multiprocessing.get_context("spawn"))
+            try:
+                with sigint_blocked():  # every worker started now, while the environment is set
+                    for started in [self._pool.submit(int, 0) for _ in range(self.workers)]:
+                        started.result()
+            except BaseException:
+                terminate(self._pool)
+                raise
         finally:
             for k, v in saved.items():
                 if v is None:
@@ -141,9 +151,7 @@ class LocalExecutor(Executor):
         self._pool.shutdown(wait=True, cancel_futures=True)
 
     def abort(self) -> None:
-        for process in list(getattr(self._pool, "_processes", {}).values()):
-            process.terminate()
-        self._pool.shutdown(wait=False, cancel_futures=True)
+        terminate(self._pool)
 
 
 class DaskExecutor(Executor):
@@ -155,24 +163,30 @@ class DaskExecutor(Executor):
             from distributed import Client
         except ImportError:
             raise SchedulerError("--scheduler needs Dask distributed: pip install -e '.[cluster]'") from None
+        if "://" not in address or not address.split("://", 1)[1]:
+            raise SchedulerError(f"{address}: not a Dask scheduler address (expected tcp://HOST:PORT)")
         try:
             self._client = Client(address, timeout="20s")
-        except OSError as e:
+        except (OSError, ValueError, TypeError) as e:
             raise SchedulerError(f"{address}: cannot reach the Dask scheduler ({e})") from None
+        self._futures: dict = {}
 
     def run(self, fn, tasks):
         from distributed import as_completed
 
-        futures = {
+        self._futures = {
             self._client.submit(fn, task, key=f"ratslam-run-{task['run_id']}", pure=False): task for task in tasks
         }
-        for future in as_completed(futures):
-            yield futures[future], future.result()
+        for future in as_completed(self._futures):
+            yield self._futures[future], future.result()
 
     def close(self) -> None:
         self._client.close()
 
     def abort(self) -> None:
+        """Cancel this command's tasks on the cluster (its other work is left alone), then disconnect."""
+        with contextlib.suppress(Exception):  # an unreachable cluster: nothing more to cancel
+            self._client.cancel(list(self._futures), force=True)
         self._client.close(timeout=5)
 
 
@@ -192,12 +206,35 @@ def _write_result(runs_dir: Path, task: dict, result: dict) -> None:
     """``runs/<id>/result.json``: written under a temporary name, then moved into place."""
     final = runs_dir / task["run_id"]
     stage = runs_dir / f".{task['run_id']}.partial-{os.getpid()}"
-    stage.mkdir(parents=True, exist_ok=True)
-    write_json(stage / "result.json", {"task": task, "result": result})
+    try:
+        stage.mkdir(parents=True, exist_ok=True)
+        write_json(stage / "result.json", {"task": task, "result": result})
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
     if final.exists():  # a result from a run that finished after a kill: keep the first
         shutil.rmtree(stage, ignore_errors=True)
         return
     os.replace(stage, final)
+
+
+def _check_sweep_dir(out: Path) -> None:
+    """An existing ``out`` must be a directory, empty or an earlier sweep's (it holds sweep.toml):
+    a sweep writes runs.csv, report.md and sweep.toml there, and must not replace a user's."""
+    if not out.exists() and not out.is_symlink():
+        for p in out.parents:
+            if p.exists():
+                if not p.is_dir():
+                    raise OutputError(f"{out}: {p} is a file, not a directory")
+                break
+        return
+    if not out.is_dir():
+        raise OutputError(f"{out}: exists and is not a directory (choose another --out)")
+    if any(out.iterdir()) and not (out / "sweep.toml").is_file():
+        raise OutputError(
+            f"{out}: exists, is not empty and is not an earlier sweep directory (no sweep.toml); "
+            "choose another --out or remove it"
+        )
 
 
 def completed(runs_dir: Path, tasks: Iterable[dict]) -> set[str]:
@@ -218,6 +255,7 @@ def run_sweep(
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     out = Path(out)
     runs_dir = out / "runs"
+    _check_sweep_dir(out)
     tasks = run_tasks(spec, code_version())
     unique = list({t["run_id"]: t for t in tasks}.values())
     done = completed(runs_dir, unique)
@@ -231,18 +269,24 @@ def run_sweep(
             from .figure_run import default_workers
 
             executor = LocalExecutor(workers or default_workers(len(todo)))
-    runs_dir.mkdir(parents=True, exist_ok=True)
-    for stale in runs_dir.glob(".*.partial-*"):  # left by a killed sweep
-        shutil.rmtree(stale, ignore_errors=True)
-    for stale in out.glob(".*.tmp*"):  # a report file a killed sweep was writing (worlds.files)
-        stale.unlink(missing_ok=True)
-    previous, spec_text = out / "sweep.toml", read_text(spec.path)
-    if previous.is_file() and read_text(previous) != spec_text:
-        log(
-            f"{previous}: another spec's (or an edited one's); replaced by {spec.path}. Runs already in "
-            f"{runs_dir} are reused where this spec asks for the same run; the report covers this spec's runs only"
-        )
-    atomic_write_text(previous, spec_text)  # what the runs were made from
+    try:
+        with output_errors(out):
+            runs_dir.mkdir(parents=True, exist_ok=True)
+            remove_stale(runs_dir, ".*.partial-*")  # left by a killed sweep
+            for stale in out.glob(".*.tmp*"):  # a report file a killed sweep was writing (worlds.files)
+                stale.unlink(missing_ok=True)
+            previous, spec_text = out / "sweep.toml", read_text(spec.path)
+            if previous.is_file() and read_text(previous) != spec_text:
+                log(
+                    f"{previous}: another spec's (or an edited one's); replaced by {spec.path}. Runs already in "
+                    f"{runs_dir} are reused where this spec asks for the same run; the report covers this spec's "
+                    "runs only"
+                )
+            atomic_write_text(previous, spec_text)  # what the runs were made from
+    except BaseException:
+        if executor is not None:
+            executor.abort()
+        raise
     log(
         f"sweep {Path(spec.path).name}: {total} runs ({len(done)} already done, {len(todo)} to run), "
         f"{len(spec.systems)} systems each"
@@ -257,7 +301,8 @@ def run_sweep(
         try:
             results = executor.run(run_one, todo)
             for task, result in results:
-                _write_result(runs_dir, task, result)
+                with output_errors(out):
+                    _write_result(runs_dir, task, result)
                 finished += 1
                 failures += bool(result["error"])
                 elapsed = time.perf_counter() - start
@@ -276,6 +321,7 @@ def run_sweep(
             executor.abort()  # interrupted: completed runs are on disk, the rest is recomputed on resume
             raise
         executor.close()
-    write_sweep_report(out, tasks)
+    with output_errors(out):
+        write_sweep_report(out, tasks)
     log(f"sweep done: {total} runs, {failures} failed; {out / 'runs.csv'}, {out / 'report.md'}")
     return out

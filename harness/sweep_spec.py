@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
@@ -110,7 +111,7 @@ class SweepSpec:
     grid: tuple[int, int, int] | None  # RatSLAM grid from a figure (None: the default)
     design: str
     axes: dict  # name -> tuple of values, in file order
-    seeds: tuple[int, ...]
+    seeds: Sequence[int]  # a range for count = N (never expanded before the run count is checked)
     systems: tuple[SystemSpec, ...]
     max_runs: int
     lookalikes: bool = True  # False: the world's look-alike regions show their own scenes
@@ -126,6 +127,14 @@ class SweepSpec:
             "pi_bias": 0.0,
             "odometry_noise_scale": 1.0,
         }
+
+    def run_count(self) -> int:
+        """How many runs :meth:`runs` gives, counted without expanding them."""
+        if self.design == "grid":
+            conditions = math.prod(len(v) for v in self.axes.values())
+        else:
+            conditions = sum(len(v) for v in self.axes.values())
+        return conditions * len(self.seeds)
 
     def conditions(self) -> list[dict]:
         """Every condition to run: {axis: value} for the varied axes (empty dict = the base)."""
@@ -214,7 +223,7 @@ def _read_axes(path: Path, raw: dict) -> dict:
     return out
 
 
-def _read_seeds(path: Path, raw: dict) -> tuple[int, ...]:
+def _read_seeds(path: Path, raw: dict) -> Sequence[int]:
     seeds = raw.get("seeds", {"count": 1})
     if not isinstance(seeds, dict) or set(seeds) - {"count", "list"} or len(seeds) != 1:
         _fail(path, "[seeds]", "expected exactly one of count = N or list = [...]")
@@ -222,7 +231,7 @@ def _read_seeds(path: Path, raw: dict) -> tuple[int, ...]:
         n = seeds["count"]
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             _fail(path, "[seeds] count", f"expected an integer >= 1, got {n!r}")
-        return tuple(range(n))
+        return range(n)
     values = seeds["list"]
     if (
         not isinstance(values, list)
@@ -299,9 +308,20 @@ def read_sweep_spec(path) -> SweepSpec:
         max_runs=max_runs,
         lookalikes=lookalikes,
     )
-    if not spec.runs():
+    if not spec.run_count():
         _fail(path, "[axes]", "the spec expands to zero runs")
     return spec
+
+
+def check_sweep_size(spec: SweepSpec, yes: bool = False) -> None:
+    """Each run's stream length and every RatSLAM system's pose-cell grid against the size budget
+    (:mod:`harness.budget`), before anything runs (``yes``: go ahead anyway)."""
+    from .budget import check_grid, check_ticks
+
+    check_ticks(f"{spec.path}: [base] duration", spec.duration * load_world(spec.world).tick_rate, yes)
+    for system in spec.systems:
+        if isinstance(system.config, RatSLAMConfig):
+            check_grid(f"{spec.path}: [systems.{system.name}]", system.config.shape, yes)
 
 
 def system_config(system: SystemSpec, condition: dict):

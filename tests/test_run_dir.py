@@ -1,5 +1,6 @@
 """The run directory never deletes what the run did not write: an existing ``--out`` must be empty
-or an earlier run (it holds metrics.json), and never the folder that holds the run's input."""
+or an earlier run holding only the files its manifest lists, and never the folder that holds the
+run's input."""
 
 import os
 
@@ -20,7 +21,7 @@ def test_a_users_folder_is_refused_and_kept(tmp_path):
     folder = tmp_path / "data"
     folder.mkdir()
     (folder / "notes.txt").write_text("mine")
-    with pytest.raises(OutputError, match="not an earlier run directory"):
+    with pytest.raises(OutputError, match="holds notes.txt .no manifest.txt: not a run directory"):
         _stage_into(folder)
     assert (folder / "notes.txt").read_text() == "mine"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data"]  # no staging left behind
@@ -30,10 +31,12 @@ def test_an_empty_folder_and_an_earlier_run_are_replaced(tmp_path):
     (tmp_path / "empty").mkdir()
     _stage_into(tmp_path / "empty")
     run = tmp_path / "run"
+    with staged_directory(run) as stage:  # an earlier run that wrote one more file
+        (stage / "metrics.json").write_text("{}")
+        (stage / "old.png").write_text("stale")
+    assert sorted(p.name for p in run.iterdir()) == ["manifest.txt", "metrics.json", "old.png"]
     _stage_into(run)
-    (run / "old.png").write_text("stale")
-    _stage_into(run)
-    assert sorted(p.name for p in run.iterdir()) == ["metrics.json"]
+    assert sorted(p.name for p in run.iterdir()) == ["manifest.txt", "metrics.json"]
 
 
 def test_a_run_directory_holding_the_input_is_refused(tmp_path):

@@ -16,6 +16,7 @@ topic and the problem (:class:`BagImportError`).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -65,6 +66,9 @@ def _poses(reader, bag, topic: str, types, role: str, twist: bool = False) -> np
             row += [msg.twist.twist.linear.x, msg.twist.twist.angular.z]
         if not np.all(np.isfinite(row)):
             raise BagImportError(f"{bag}: topic {topic} ({role}): message {len(rows) + 1}: non-finite value")
+        q = pose.orientation
+        if math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w) < 1e-9:  # as worlds.trajectory_import
+            raise BagImportError(f"{bag}: topic {topic} ({role}): message {len(rows) + 1}: quaternion of zero length")
         rows.append(row)
     if len(rows) < 2:
         raise BagImportError(f"{bag}: topic {topic} ({role}): needs at least 2 messages, got {len(rows)}")

@@ -38,6 +38,9 @@ SCENE_ID_MIN, SCENE_ID_MAX = -1, 2**63 - 1
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 DT_MISMATCH = 2.0
 """``dt`` must agree with the spacing of ``t`` within this factor (median over the log)."""
+MAX_SECONDS = 1e12
+"""A time ``t`` or tick length ``dt`` beyond this many seconds (about 31,700 years) is refused:
+not a robot's log, and its arithmetic (durations, real-time factors) overflows to infinity."""
 
 
 def parse_int(cell: str) -> int | None:
@@ -207,6 +210,10 @@ def _check_semantics(path, v):
     bad = np.flatnonzero(v["dt"] <= 0)
     if len(bad):
         fail(bad[0], "dt", f"must be positive, got {float(v['dt'][bad[0]])!r}")
+    for column in ("t", "dt"):
+        bad = np.flatnonzero(np.abs(v[column]) > MAX_SECONDS)
+        if len(bad):
+            fail(bad[0], column, f"beyond {MAX_SECONDS:.0e} s, got {float(v[column][bad[0]])!r} (times are in seconds)")
     bad = np.flatnonzero(np.diff(v["t"]) <= 0)
     if len(bad):
         t0, t1 = float(v["t"][bad[0]]), float(v["t"][bad[0] + 1])

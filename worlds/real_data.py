@@ -129,5 +129,10 @@ def load_plaza(
         scenes = replace(scenes, false_positive_rate=float(fp_rate))
     if duration is not None:
         keep = t - gt[0, 0] <= duration
+        if keep.sum() < 2:
+            raise RealDataError(
+                f"{name}: --duration {duration:g} s keeps {int(keep.sum())} of the log's ticks, "
+                f"{float(np.median(dt)):g} s apart; at least 2 are needed"
+            )
         dr, gt, t, dt, theta = dr[keep], gt[np.r_[True, keep]], t[keep], dt[keep], theta[np.r_[True, keep]]
     return labelled_log(t, dt, dr[:, 1] / dt, dr[:, 2] / dt, gt[1:, 1], gt[1:, 2], theta[1:], scenes, seed)

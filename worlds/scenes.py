@@ -143,6 +143,8 @@ class SceneLayout:
                 p = a + u * d + offset * normal
                 for th in (heading,) if one_way else (heading, heading + np.pi):
                     cells.append(self.cell_index(p[:, 0], p[:, 1], np.full(len(p), th)))
+        if not cells:  # no route at all (a path that never moved 0.5 m): no cell seen along it
+            return np.zeros(0, dtype=np.int64)
         return np.unique(np.concatenate(cells))
 
     def cell_centres(self):

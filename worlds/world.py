@@ -28,6 +28,9 @@ class WorldFileError(InputError):
         super().__init__(f"{path}: {field_name}: {problem}")
         self.path, self.field, self.problem = str(path), field_name, problem
 
+    def __reduce__(self):  # pickled back from a worker process with its own arguments
+        return (type(self), (self.path, self.field, self.problem))
+
 
 @dataclass(frozen=True)
 class RobotSpec:
@@ -502,7 +505,7 @@ MAX_TICKS = 100_000_000
 
 def _check_scale(path, w: World):
     """Sizes that would exhaust memory or make the robot pass through walls."""
-    cells = math.ceil(w.size[0] / w.scenes.cell_size) * math.ceil(w.size[1] / w.scenes.cell_size)
+    cells = float(math.ceil(w.size[0] / w.scenes.cell_size)) * float(math.ceil(w.size[1] / w.scenes.cell_size))
     if cells * w.scenes.heading_sectors > MAX_SCENE_CELLS:
         raise WorldFileError(
             path,
