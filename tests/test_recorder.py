@@ -297,7 +297,7 @@ def test_a_failing_run_leaves_no_recording(tmp_path, monkeypatch):
     world = load_world("small_loop")
     log = simulate(world, duration=5.0, seed=0)
 
-    def failing_run_stream(log, rs_cfg, pg_cfg, on_tick=None, progress=None, odometry=None):
+    def failing_run_stream(log, rs_cfg, pg_cfg, on_tick=None, progress=None, odometry=None, alternatives=None):
         from baselines import PoseGraphSLAM
         from ratslam import RatSLAM
 
