@@ -26,7 +26,9 @@ def _assert_round_trip(path):
 
 
 def test_figure_metrics_round_trip(tmp_path):
-    out = run_figure("fig8", out=tmp_path / "fig8", duration=60.0, show_progress=False, workers=1)
+    # the defaults alone: a minute of the published RatSLAM leaves NaN metrics, written as null
+    # (RunResult.write), which read back as unmeasured and so cannot round-trip to the same text
+    out = run_figure("fig8", out=tmp_path / "fig8", duration=60.0, show_progress=False, workers=1, ratslam="defaults")
     run = _assert_round_trip(out / "metrics.json")
     assert list(run.variants) == ["paper", "odometric", "odometric_bias_var"]
     v = run.variant("paper")
