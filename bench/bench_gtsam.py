@@ -15,8 +15,9 @@ false-positive rate, seed 0):
 2. the whole 15-minute small_loop stream (6,300 ticks) for every back-end, as
    wall time, real-time factor and ratio to a pass that only integrates
    odometry (no scene numbers, so no closures);
-3. every benchmark stream (clean, false positives + aliasing + bias, office
-   floor, fast, two real vehicles) end to end with the default configuration.
+3. every benchmark stream (clean, false positives + aliasing + bias, a biased figure
+   eight, fast, two real vehicles, Plaza 2 with harder labels, the 2.5-hour office
+   floor; all whole) end to end with the default configuration.
 
 Targets: at 10,000 keyframes, median update <= 5 ms and p99 <= 50 ms.
 The machine is shared and timings are noisy: ratios are printed beside times.
@@ -191,7 +192,7 @@ def stream_timing(repeats: int = 3) -> dict:
 
 def hard_stream_timing() -> dict:
     """The benchmark streams of ``bench/streams.py`` (false positives, aliasing, bias, the
-    office floor, fast and real odometry), default configuration, whole stream."""
+    2.5-hour office floor, fast and real odometry), default configuration, whole stream."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from streams import STREAMS
 

@@ -1,153 +1,162 @@
-"""Benchmark: RatSLAM.step per stream, the sparse box path against the full-grid reference.
+"""Benchmark: RatSLAM.step over every tick of whole runs, beside a reference version timed in the
+same run.
 
-Run:  python bench/bench_ratslam.py [--quick]
+Run:  python bench/bench_ratslam.py [--reference DIR] [--repeats N] [--streams a,b,...]
 
-Reports, in one run:
-* per stream of ``bench/streams.py`` (clean, false positives + aliasing + bias, the office
-  floor, a fast simulated stream, two real vehicles' odometry): ``RatSLAM.step`` steps/s with
-  the default configuration (60 x 60 x 36) over the stream, and on its first ``--ref-ticks``
-  ticks both the box path and the same pipeline with the pose cells replaced by the full-grid
-  reference (``ratslam.pose_cells_reference``), with their ratio; the median and the worst
-  stream;
-* the worst case for boxes: activity over the whole grid (one step, box path vs reference);
-* scaling with experience count (map correction over all links every tick).
+For each stream of ``bench/streams.py`` (always whole: no prefix) the script writes the stream's
+odometry and scene numbers to a file and times ``RatSLAM.step`` with the default configuration
+(on the stream's grid) over every tick, in a subprocess per run (``bench/step_timer.py``): this
+working copy, and, if ``--reference DIR`` is given (a checkout of another version with its own
+virtual environment in ``DIR/.venv``), that version on the same file, the two alternating. It
+prints steps/s per quarter of each run (so growth with the map and the packets shows), the
+whole run's rate, the ratio to the reference, the median and the worst stream, and whether both
+versions ended with the same map (a digest of the experience poses and the pose-cell peak).
 
-Timings are noisy on a shared machine: each figure is the best of ``--repeats`` runs and the
-ratios (measured in the same run) are the figures to compare. Compiled kernels are loaded
-(or compiled) before timing; the warm-up is reported.
+Timings are noisy on a shared machine: with ``--repeats N`` each version runs each stream N
+times and each quarter keeps its best time; the ratios (measured minutes apart) are the figures
+to compare. Each subprocess loads (or compiles) the compiled kernels before the timed run; the
+reference uses its own kernel cache under the system's temporary directory, so the reference
+checkout is only read.
 """
 
 from __future__ import annotations
 
-import os
-
-# The pose-cell arrays are small: BLAS threads would only contend. Set before numpy loads.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
 import argparse
-import math
+import hashlib
+import json
+import os
+import statistics
+import subprocess
 import sys
-import time
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
 
-from streams import STREAMS
+from streams import GRIDS, STREAMS  # noqa: E402
 
-from ratslam import RatSLAM, RatSLAMConfig
-from ratslam.pose_cells_reference import FullGridPoseCells
-
-
-def make_slam(reference: bool = False, n_experiences: int = 0) -> RatSLAM:
-    slam = RatSLAM(RatSLAMConfig())
-    if reference:
-        slam.pose_cells = FullGridPoseCells(slam.config)
-    prefill_map(slam, n_experiences)
-    return slam
+DEFAULT_GRID = (60, 60, 36)
 
 
-def prefill_map(slam: RatSLAM, n_experiences: int, seed: int = 0) -> None:
-    """Put ``n_experiences`` experiences (a random walk, chained, with ~10% extra loop-closure
-    links) into the map, with views no real scene uses, so every tick corrects them all."""
-    if n_experiences == 0:
-        return
-    em = slam.experience_map
-    rng = np.random.default_rng(seed)
-    pose = np.zeros(3)
-    for i in range(n_experiences):
-        em.add_experience(pose, rng.uniform(0, 60, 3), -1000 - i, 0)
-        step = rng.normal([0.3, 0.0, 0.0], [0.05, 0.05, 0.2])
-        c, s = math.cos(pose[2]), math.sin(pose[2])
-        pose = pose + [c * step[0] - s * step[1], s * step[0] + c * step[1], step[2]]
-        if i:
-            em.add_transition(i - 1, i, step[0], step[1], step[2], 1.0)
-    for _ in range(n_experiences // 10):
-        i, j = rng.integers(0, n_experiences, 2)
-        em.add_transition(int(i), int(j), *rng.normal(0, 1, 3), 1.0)
-    em.current = -1
+def write_stream(name: str, path: Path) -> int:
+    """Write stream ``name`` for the timer; returns its tick count."""
+    log = STREAMS[name]()
+    np.savez(
+        path,
+        dt=np.asarray(log.dt, dtype=float),
+        v_trans=np.asarray(log.v_trans, dtype=float),
+        v_rot=np.asarray(log.v_rot, dtype=float),
+        scene_id=np.asarray(log.scene_id, dtype=np.int64),
+        grid=np.array(GRIDS.get(name, DEFAULT_GRID), dtype=np.int64),
+    )
+    return len(log.dt)
 
 
-def steps_per_second(log, ticks: int, repeats: int, reference: bool = False, n_experiences: int = 0) -> float:
-    """Best steps/s of ``RatSLAM.step`` over the first ``ticks`` ticks of ``log``."""
-    dt, v, w, s = (np.asarray(a)[:ticks] for a in (log.dt, log.v_trans, log.v_rot, log.scene_id))
-    dt, v, w, s = dt.tolist(), v.tolist(), w.tolist(), s.tolist()
-    best = 0.0
-    for _ in range(repeats):
-        slam = make_slam(reference, n_experiences)
-        t0 = time.perf_counter()
-        for k in range(len(dt)):
-            slam.step(dt[k], v[k], w[k], s[k])
-        best = max(best, len(dt) / (time.perf_counter() - t0))
-    return best
+def time_stream(python: str, root: Path | None, stream: Path, cache: Path | None) -> dict:
+    """Run ``step_timer.py`` on ``stream`` with interpreter ``python`` and, if ``root`` is given,
+    the package from ``root`` (its kernel cache in ``cache``). Returns the timer's record."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    if root is not None:
+        env["PYTHONPATH"] = str(root)
+        env["PYTHONDONTWRITEBYTECODE"] = "1"
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache)
+    out = subprocess.run(
+        [python, str(HERE / "step_timer.py"), str(stream)], env=env, capture_output=True, text=True, check=False
+    )
+    if out.returncode != 0:
+        raise SystemExit(f"{stream.stem}: timer failed ({python}):\n{out.stderr.strip()}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def dense_step_ms() -> tuple[float, float]:
-    """One step with activity on every cell: box path vs full-grid reference (ms)."""
-    cfg = RatSLAMConfig()
-    rng = np.random.default_rng(0)
-    cells = np.stack(np.meshgrid(*(np.arange(n) for n in cfg.shape), indexing="ij"), -1).reshape(-1, 3)
-    energy = rng.uniform(0.5, 1.0, len(cells)) * 1e-3
-    out = []
-    for reference in (False, True):
-        best = math.inf
-        for _ in range(3):
-            slam = make_slam(reference=reference)
-            slam.pose_cells.inject(cells, energy)
-            t0 = time.perf_counter()
-            slam.pose_cells.step(0.04, 0.01)
-            best = min(best, time.perf_counter() - t0)
-        out.append(best * 1e3)
-    return out[0], out[1]
+def best(records: list[dict]) -> dict:
+    """Per quarter the best (smallest) time over repeats."""
+    rec = dict(records[0])
+    rec["seconds"] = [min(r["seconds"][q] for r in records) for q in range(4)]
+    rec["warm_up_s"] = max(r["warm_up_s"] for r in records)
+    return rec
+
+
+def rates(rec: dict) -> tuple[list[float], float]:
+    """Steps/s per quarter and over the whole run."""
+    per_q = [t / s for t, s in zip(rec["ticks"], rec["seconds"])]
+    return per_q, sum(rec["ticks"]) / sum(rec["seconds"])
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--ticks", type=int, default=4000, help="ticks per stream for the box path (default 4000)")
-    ap.add_argument("--ref-ticks", type=int, default=400, help="ticks compared with the reference (default 400)")
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--quick", action="store_true", help="fewer ticks, one repeat")
+    ap.add_argument("--reference", type=Path, help="checkout of the version to compare with (its venv in DIR/.venv)")
+    ap.add_argument("--repeats", type=int, default=1, help="runs per stream and version (best per quarter)")
+    ap.add_argument("--streams", help="comma-separated stream names (default: all)")
+    ap.add_argument("--json", type=Path, help="also write the records here")
     args = ap.parse_args()
-    ticks, ref_ticks, repeats = (1000, 200, 1) if args.quick else (args.ticks, args.ref_ticks, args.repeats)
+    names = args.streams.split(",") if args.streams else list(STREAMS)
+    unknown = [s for s in names if s not in STREAMS]
+    if unknown:
+        raise SystemExit(f"--streams: unknown stream(s) {unknown} (known: {', '.join(STREAMS)})")
+    ref_python = None
+    if args.reference is not None:
+        ref_python = args.reference / ".venv" / "bin" / "python"
+        if not ref_python.exists():
+            raise SystemExit(f"--reference: {ref_python} not found")
 
-    t0 = time.perf_counter()
-    warm = make_slam()
-    for k in range(5):
-        warm.step(0.14, 0.3, 0.1 * k, k % 2)  # loads (or compiles) the kernels
-    print(f"kernel warm-up (load or compile): {time.perf_counter() - t0:.2f} s")
-
-    print(f"RatSLAM.step, default config 60x60x36, best of {repeats}")
-    print(
-        f"  {'stream':16s} {'ticks':>6s} {'steps/s':>9s} | "
-        f"first {ref_ticks}: {'box':>7s} {'full grid':>9s} {'ratio':>6s}"
+    work = Path(tempfile.mkdtemp(prefix="bench_ratslam_"))
+    # the reference's kernel cache: kept between runs, outside the reference checkout
+    ref_cache = None
+    if args.reference is not None:
+        key = hashlib.sha256(str(args.reference.resolve()).encode()).hexdigest()[:12]
+        ref_cache = Path(tempfile.gettempdir()) / "bench_ratslam_numba" / key
+    print("RatSLAM.step, default configuration, every tick of each whole stream (steps/s)")
+    quarters = " ".join(f"{q:>6s}" for q in ("Q1", "Q2", "Q3", "Q4"))
+    header = f"  {'stream':16s} {'grid':>9s} {'ticks':>6s} | {quarters} | {'whole':>6s}"
+    if ref_python:
+        header += f" | {'reference':>9s} {'ratio':>6s}  same map"
+    print(header)
+    results = {}
+    for name in names:
+        path = work / f"{name}.npz"
+        ticks = write_stream(name, path)
+        mine, ref = [], []
+        for k in range(args.repeats):
+            order = [False, True] if k % 2 == 0 else [True, False]
+            for is_ref in order if ref_python else [False]:
+                if is_ref:
+                    ref.append(time_stream(str(ref_python), args.reference, path, ref_cache))
+                else:
+                    mine.append(time_stream(sys.executable, None, path, None))
+        rec = best(mine)
+        per_q, whole = rates(rec)
+        grid = "x".join(str(v) for v in GRIDS.get(name, DEFAULT_GRID))
+        line = f"  {name:16s} {grid:>9s} {ticks:6d} | " + " ".join(f"{r:6.0f}" for r in per_q) + f" | {whole:6.0f}"
+        results[name] = {"this": rec, "rate": whole, "quarters": per_q}
+        if ref_python:
+            rrec = best(ref)
+            _, rwhole = rates(rrec)
+            same = "yes" if rrec["digest"] == rec["digest"] else "NO"
+            line += f" | {rwhole:9.0f} {whole / rwhole:5.2f}x  {same}"
+            results[name].update(reference=rrec, reference_rate=rwhole, ratio=whole / rwhole)
+        if rec["warm_up_s"] > 2.0:
+            line += f"  (kernels compiled in warm-up: {rec['warm_up_s']:.0f} s)"
+        print(line, flush=True)
+    whole_rates = {n: r["rate"] for n, r in results.items()}
+    worst = min(whole_rates, key=whole_rates.__getitem__)
+    summary = (
+        f"  median over streams {statistics.median(whole_rates.values()):.0f} steps/s; "
+        f"worst {worst} {whole_rates[worst]:.0f}"
     )
-    rates = {}
-    for name, make in STREAMS.items():
-        log = make()
-        n = min(ticks, len(log))
-        rate = steps_per_second(log, n, repeats)
-        box = steps_per_second(log, ref_ticks, repeats)
-        ref = steps_per_second(log, ref_ticks, 1, reference=True)
-        rates[name] = rate
-        print(f"  {name:16s} {n:6d} {rate:9.0f} | {box:18.0f} {ref:9.0f} {box / ref:5.1f}x", flush=True)
-    values = np.array(list(rates.values()))
-    worst = min(rates, key=rates.get)
-    print(f"  median over streams {np.median(values):.0f} steps/s; worst {worst} {rates[worst]:.0f} steps/s")
-
-    box_ms, ref_ms = dense_step_ms()
-    print(
-        f"activity on every cell, one pose-cell step: box path {box_ms:.2f} ms, full grid {ref_ms:.2f} ms, "
-        f"ratio {ref_ms / box_ms:.1f}x"
-    )
-
-    print("scaling with experience count (small_loop stream, 60x60x36):")
-    log = STREAMS["small_loop"]()
-    base = None
-    for n_exp in (0, 1000, 5000, 20000) if not args.quick else (0, 5000):
-        rate = steps_per_second(log, min(ticks, 2000), repeats, n_experiences=n_exp)
-        base = base or rate
-        print(f"  {n_exp:6d} experiences: {rate:8.0f} steps/s ({1e3 / rate:.3f} ms/step, {rate / base:.2f}x of empty)")
+    if ref_python:
+        ref_rates = {n: r["reference_rate"] for n, r in results.items()}
+        rworst = min(ref_rates, key=ref_rates.__getitem__)
+        summary += (
+            f" (reference: median {statistics.median(ref_rates.values()):.0f}, worst {rworst} {ref_rates[rworst]:.0f}; "
+            f"median ratio {statistics.median(r['ratio'] for r in results.values()):.2f}x)"
+        )
+    print(summary)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1))
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.typed import List
 
 
 @njit(cache=True)
@@ -110,15 +111,16 @@ def _window(p, n):
 
 
 @njit(cache=True)
-def inhibit_clip_crop(exc, taps0, taps1, taps2, off_within, weight, global_inh, start, n):
-    """Steps 2-3 and the crop for one excited box ``exc`` starting at global ``start``:
-    ``max(exc - weight · inh - global_inh, 0)``, ``inh`` being the inhibition kernel applied
-    within the box, then the smallest wrap-aware box holding every non-zero cell.
+def inhibit_clip(exc, taps0, taps1, taps2, off_within, weight, global_inh, n):
+    """Steps 2-3 for one excited box ``exc``: ``max(exc - weight · inh - global_inh, 0)``, ``inh``
+    being the inhibition kernel applied within the box.
 
     Inhibition is non-negative, so a cell with ``exc <= global_inh`` ends at zero whatever it
     is: ``inh`` is evaluated only over the window of cells above the global inhibition (the
-    same sums, in the same order, as over the whole box). Returns (new start (3,), activity,
-    its sum); the activity is (0, 0, 0) if every cell is zero.
+    same sums, in the same order, as over the whole box). Returns the projections of the cells
+    above the global inhibition (``pt, px, py``, over the box), the window's local start
+    (``t0, x0, y0``), the activity over the window and the projections of its non-zero cells
+    (``qt, qx, qy``); the window is empty if no cell is above the global inhibition.
     """
     lt, lx, ly = exc.shape
     pt = np.zeros(lt, dtype=np.bool_)
@@ -135,9 +137,9 @@ def inhibit_clip_crop(exc, taps0, taps1, taps2, off_within, weight, global_inh, 
             if row_any:
                 pt[t] = True
                 px[x] = True
-    empty = np.zeros((0, 0, 0))
     if not pt.any():
-        return start.copy(), empty, 0.0
+        none = np.zeros(0, dtype=np.bool_)
+        return pt, px, py, 0, 0, 0, np.zeros((0, 0, 0)), none, none, none
     t0, nt = _window(pt, n[0])
     x0, nx = _window(px, n[1])
     y0, ny = _window(py, n[2])
@@ -173,6 +175,18 @@ def inhibit_clip_crop(exc, taps0, taps1, taps2, off_within, weight, global_inh, 
             if row_any:
                 qt[t] = True
                 qx[x] = True
+    return pt, px, py, t0, x0, y0, act, qt, qx, qy
+
+
+@njit(cache=True)
+def inhibit_clip_crop(exc, taps0, taps1, taps2, off_within, weight, global_inh, start, n):
+    """Steps 2-3 and the crop for one excited box ``exc`` starting at global ``start``
+    (:func:`inhibit_clip`), then the smallest wrap-aware box holding every non-zero cell.
+    Returns (new start (3,), activity, its sum); the activity is (0, 0, 0) if every cell is zero.
+    """
+    _, _, _, t0, x0, y0, act, qt, qx, qy = inhibit_clip(exc, taps0, taps1, taps2, off_within, weight, global_inh, n)
+    if act.shape[0] == 0:
+        return start.copy(), np.zeros((0, 0, 0)), 0.0
     win_start = np.empty(3, dtype=np.int64)
     win_start[0] = (start[0] + t0) % n[0]
     win_start[1] = (start[1] + x0) % n[1]
@@ -403,6 +417,22 @@ def refine_peak(cg, sums, rad, n):
 
 
 @njit(cache=True)
+def peak_of_box(act, start, n, rad):
+    """The peak (x', y', θ') of a network held in one box: its strongest cell refined by
+    :func:`refine_peak` over the neighbourhood sums (the steps of ``PoseCells._update_peak``)."""
+    _, idx = strongest_cell(act)
+    cg = np.empty(3, dtype=np.int64)
+    rel = np.empty(3, dtype=np.int64)
+    for a in range(3):
+        cg[a] = (start[a] + idx[a]) % n[a]
+        rel[a] = (cg[a] - rad - start[a]) % n[a]
+    p = refine_peak(cg, neighbourhood_sums(act, rel, rad, n), rad, n)
+    out = np.empty(3)
+    out[0], out[1], out[2] = p[1], p[2], p[0]
+    return out
+
+
+@njit(cache=True)
 def cells_at_least(act, start, n, threshold):
     """Cells of a box with activity > 0 and >= ``threshold``: linear indices over (x', y', θ')
     (``(x·ny + y)·nθ + θ``, sorted) and their activities."""
@@ -416,19 +446,39 @@ def cells_at_least(act, start, n, threshold):
                     count += 1
     lin = np.empty(count, dtype=np.int64)
     val = np.empty(count)
+    # visit the cells in ascending linear index (x' major, then y', then θ'): no sort needed
+    ot, ox, oy = _ascending(start[0], lt, n[0]), _ascending(start[1], lx, n[1]), _ascending(start[2], ly, n[2])
     k = 0
-    for t in range(lt):
-        gt = (start[0] + t) % n[0]
-        for x in range(lx):
-            gx = (start[1] + x) % n[1]
-            for y in range(ly):
+    for i in range(lx):
+        x = ox[i]
+        gx = (start[1] + x) % n[1]
+        for j in range(ly):
+            y = oy[j]
+            base = (gx * n[2] + (start[2] + y) % n[2]) * n[0]
+            for m in range(lt):
+                t = ot[m]
                 v = act[t, x, y]
                 if v > 0.0 and v >= threshold:
-                    lin[k] = (gx * n[2] + (start[2] + y) % n[2]) * n[0] + gt
+                    lin[k] = base + (start[0] + t) % n[0]
                     val[k] = v
                     k += 1
-    order = np.argsort(lin)
-    return lin[order], val[order]
+    return lin, val
+
+
+@njit(cache=True)
+def _ascending(start, length, n):
+    """Local indices ``0..length-1`` of a box axis starting at global ``start`` on a ring of ``n``
+    (``length <= n``), ordered by ascending global index ``(start + i) mod n``."""
+    order = np.empty(length, dtype=np.int64)
+    wrap = min(max(n - start, 0), length)  # local indices below this do not wrap
+    k = 0
+    for i in range(wrap, length):
+        order[k] = i
+        k += 1
+    for i in range(wrap):
+        order[k] = i
+        k += 1
+    return order
 
 
 # --------------------------------------------------------------------- injection and merging
@@ -487,3 +537,59 @@ def decode_linear(lin, n):
         g[2, c] = v % n[2]
         g[1, c] = v // n[2]
     return g
+
+
+@njit(cache=True)
+def boxes_of_clusters(g, energy, todo, n, radius):
+    """New boxes for the pending cells (``todo``) of global cells ``g`` (3, k), one per cluster:
+    the first pending cell seeds a cluster of every pending cell within ``radius`` cells of it on
+    every axis (wrap-aware), the next cell left seeds the next. Returns the boxes' starts (m, 3),
+    shapes (m, 3) and activities (:func:`box_of_cells`, cells added in their order) one after the
+    other, flattened."""
+    k = g.shape[1]
+    label = np.full(k, -1, dtype=np.int64)
+    count = 0
+    for s in range(k):
+        if not todo[s] or label[s] >= 0:
+            continue
+        for c in range(s, k):
+            if not todo[c] or label[c] >= 0:
+                continue
+            near = True
+            for a in range(3):
+                d = abs(g[a, c] - g[a, s])
+                if min(d, n[a] - d) > radius:
+                    near = False
+                    break
+            if near:
+                label[c] = count
+        count += 1
+    starts = np.empty((count, 3), dtype=np.int64)
+    shapes = np.empty((count, 3), dtype=np.int64)
+    parts = List()
+    size = 0
+    for j in range(count):
+        m = 0
+        for c in range(k):
+            if label[c] == j:
+                m += 1
+        gj = np.empty((3, m), dtype=np.int64)
+        ej = np.empty(m)
+        i = 0
+        for c in range(k):
+            if label[c] == j:
+                gj[:, i] = g[:, c]
+                ej[i] = energy[c]
+                i += 1
+        start, act = box_of_cells(gj, ej, n)
+        starts[j] = start
+        for a in range(3):
+            shapes[j, a] = act.shape[a]
+        parts.append(act.ravel())
+        size += act.size
+    values = np.empty(size)
+    pos = 0
+    for j in range(count):
+        values[pos : pos + parts[j].shape[0]] = parts[j]
+        pos += parts[j].shape[0]
+    return starts, shapes, values

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import pose_cell_kernels as K
+from . import pose_cell_split
 from .config import RatSLAMConfig
 
 
@@ -198,15 +199,13 @@ class PoseCells:
         for start, act in self._boxes:
             K.add_inside(act, start, n, g, energy, todo)
         if todo.any():
-            g, energy = g[:, todo], energy[todo]
             # one new box per cluster of cells (boxes that turn out close are merged later)
-            remaining = np.arange(g.shape[1])
-            while remaining.size:
-                d = np.abs(g[:, remaining] - g[:, remaining[:1]])
-                d = np.minimum(d, n[:, None] - d)
-                near = np.all(d <= 2 * self._reach, axis=0)
-                members, remaining = remaining[near], remaining[~near]
-                self._boxes.append(list(K.box_of_cells(np.ascontiguousarray(g[:, members]), energy[members], n)))
+            starts, shapes, values = K.boxes_of_clusters(g, energy, todo, n, 2 * self._reach)
+            pos = 0
+            for start, shape in zip(starts, shapes):
+                size = int(shape[0] * shape[1] * shape[2])
+                self._boxes.append([start.copy(), values[pos : pos + size].reshape(tuple(shape))])
+                pos += size
 
     def _merge_interacting(self) -> None:
         """Merge boxes that are close enough to interact during one iteration.
@@ -259,13 +258,41 @@ class PoseCells:
             self._merge_interacting()
         n = self._n
         r = cfg.excite_radius_cells
+        te, ti = self._taps_exc, self._taps_inh
+        if len(self._boxes) == 1:  # the usual case: the steps below in one compiled call
+            start, act = self._boxes[0]
+            alive, start, act, peak = pose_cell_split.step_one_box(
+                act,
+                start,
+                n,
+                te[0],
+                te[1],
+                te[2],
+                ti[0],
+                ti[1],
+                ti[2],
+                self._off_spread,
+                self._off_within,
+                r,
+                cfg.inhibit_weight,
+                cfg.global_inhibition,
+                self._cos,
+                self._sin,
+                v_trans_dt * cfg.trans_gain / cfg.cell_size_m,
+                v_rot_dt / cfg.theta_cell_rad,
+                cfg.peak_radius_cells,
+            )
+            if not alive:
+                raise RuntimeError("pose-cell activity vanished: global_inhibition too strong for the packet")
+            self._boxes = [[start, act]]
+            self._peak = peak
+            return
         new_boxes = []
         total = 0.0
-        te, ti = self._taps_exc, self._taps_inh
         for start, act in self._boxes:
             # 1. local excitation (the box grows by the excitation radius), 2. local inhibition
             # within that box, 3. global inhibition and non-negativity, then crop
-            start, act, mass = K.network_box(
+            start, act, mass = pose_cell_split.network_box(
                 act,
                 start,
                 n,
@@ -315,6 +342,9 @@ class PoseCells:
     def _update_peak(self) -> None:
         """Strongest cell refined by the circular weighted mean of its neighbourhood."""
         boxes, n, rad = self._boxes, self._n, self.config.pose_cells.peak_radius_cells
+        if len(boxes) == 1:
+            self._peak = K.peak_of_box(boxes[0][1], boxes[0][0], n, rad)
+            return
         best = [K.strongest_cell(act) for _, act in boxes]
         bi = max(range(len(boxes)), key=lambda i: best[i][0]) if len(boxes) > 1 else 0
         cg = (boxes[bi][0] + best[bi][1]) % n  # global strongest cell (θ, x, y)
