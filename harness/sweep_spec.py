@@ -53,7 +53,7 @@ from typing import NoReturn
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
-from ratslam.config_fields import ConfigError, replace
+from slamkit.config_fields import ConfigError, replace
 from worlds import load_world
 from worlds.errors import InputError
 

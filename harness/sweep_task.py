@@ -21,7 +21,7 @@ import numpy as np
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from ratslam import RatSLAM, RatSLAMConfig
-from ratslam.config_fields import from_dict
+from slamkit.config_fields import from_dict
 from worlds import load_world, simulate
 
 from . import metrics
