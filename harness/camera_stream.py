@@ -12,6 +12,7 @@ hands to ``step`` (the pose graph gets the same template numbers).
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import shutil
 from collections import deque
@@ -140,6 +141,13 @@ def _images(log: ObservationLog, log_path, size: tuple[int, int], draft_to) -> I
                 raise
 
 
+def _draft_to(config: ViewConfig) -> tuple[int, int] | None:
+    """The template size a JPEG may be decoded down towards (nothing cropped: crops count pixels of
+    the full image)."""
+    crops = (config.crop_top, config.crop_bottom, config.crop_left, config.crop_right)
+    return None if any(crops) else (config.template_width, config.template_height)
+
+
 def match_camera_log(
     log: ObservationLog, log_path, config: ViewConfig, progress: Callable[[int, int], None] | None = None
 ) -> ObservationLog:
@@ -152,8 +160,7 @@ def match_camera_log(
     vm = ViewMatcher(config)
     n = len(log)
     size = image_size(Path(log_path).parent / log.image[0], f"{log_path}: line 2, column image: {log.image[0]}")
-    crops = (config.crop_top, config.crop_bottom, config.crop_left, config.crop_right)
-    draft_to = (config.template_width, config.template_height) if not any(crops) else None
+    draft_to = _draft_to(config)
     scene, rotation = np.empty(n, dtype=np.int64), np.empty(n)
     for k, image in enumerate(_images(log, log_path, size, draft_to)):
         try:
@@ -184,6 +191,72 @@ def derived_template_size(columns: int, rows: int, panoramic: bool) -> tuple[int
     return width, height
 
 
+SELF_SIMILAR_WINDOW_S = 60.0
+"""The stretch at the start of a log whose views set the match threshold."""
+SELF_SIMILAR_TRAVEL_M = 0.3
+"""Each view in that stretch is compared with the view this much odometry travel before it."""
+SELF_SIMILAR_SCALE = 0.9
+"""The threshold is this times the median of those differences: on the simulator's default
+forward camera (small loop, seed 0; median 0.0441) that is 0.0397, about the fixed default 0.04
+(docs/your-camera.md measures the rule on other sizes, noise, light and worlds)."""
+SELF_SIMILAR_MIN_PAIRS = 20
+"""Fewer pairs than this (a robot that hardly moved) keep the configured threshold."""
+
+
+def self_similarity(frame: Callable[[int], np.ndarray], log: ObservationLog, config: ViewConfig) -> tuple[float, int]:
+    """The median least difference (over the matcher's shifts, with ``config``'s template)
+    between each view of the log's first :data:`SELF_SIMILAR_WINDOW_S` seconds and the view
+    :data:`SELF_SIMILAR_TRAVEL_M` of odometry travel before it, and the number of such pairs
+    (NaN, 0 if none). ``frame(k)`` is tick ``k``'s image."""
+    window = np.flatnonzero(log.t <= log.t[0] + SELF_SIMILAR_WINDOW_S)
+    travel = np.cumsum(np.abs(log.v_trans * log.dt))
+    matcher = ViewMatcher(config)
+    plain = dataclasses.replace(  # compares templates as they are: no crop, no normalisation again
+        config,
+        crop_top=0,
+        crop_bottom=0,
+        crop_left=0,
+        crop_right=0,
+        global_normalisation=False,
+        patch_normalisation_radius=0,
+    )
+    templates: dict[int, np.ndarray] = {}
+
+    def template(k: int) -> np.ndarray:
+        if k not in templates:
+            templates[k] = matcher.template_of(frame(k))
+        return templates[k]
+
+    diffs = []
+    for k in window:
+        j = int(np.searchsorted(travel, travel[k] - SELF_SIMILAR_TRAVEL_M, side="right")) - 1
+        if j < 0:
+            continue
+        probe = ViewMatcher(plain)
+        probe.store(template(j))
+        d, _ = probe.differences(template(int(k)))
+        diffs.append(float(d[0]))
+    return (float(np.median(diffs)), len(diffs)) if diffs else (math.nan, 0)
+
+
+def self_similar_threshold(frame: Callable[[int], np.ndarray], log: ObservationLog, config: ViewConfig):
+    """The match threshold from the first minute's self-similarity (:data:`SELF_SIMILAR_SCALE`
+    times :func:`self_similarity`), or None where there are fewer than
+    :data:`SELF_SIMILAR_MIN_PAIRS` pairs; and the line saying how it was derived."""
+    median, pairs = self_similarity(frame, log, config)
+    if pairs < SELF_SIMILAR_MIN_PAIRS:
+        return None, (
+            f"match threshold {config.match_threshold:g} as configured: only {pairs} views of the first "
+            f"{SELF_SIMILAR_WINDOW_S:g} s lie {SELF_SIMILAR_TRAVEL_M:g} m of travel after another"
+        )
+    threshold = SELF_SIMILAR_SCALE * median
+    return threshold, (
+        f"match threshold {threshold:.4g} = {SELF_SIMILAR_SCALE:g} x {median:.4g}, the median difference of the "
+        f"first {SELF_SIMILAR_WINDOW_S:g} s's views to those {SELF_SIMILAR_TRAVEL_M:g} m of travel before "
+        f"({pairs} pairs)"
+    )
+
+
 def log_camera_view(
     log: ObservationLog, log_path, view: ViewConfig, given: Collection[str] = (), fov_deg: float | None = None
 ) -> tuple[ViewConfig, str]:
@@ -192,7 +265,8 @@ def log_camera_view(
     was derived. The field of view: ``fov_deg`` (``--fov``), else the configuration file's, else
     the log's camera description (:data:`worlds.image_log.CAMERA_FILE`), else a one-line error
     saying how to give it. The template size: :func:`derived_template_size` of the first image's
-    cropped size. The threshold stays ``view``'s (docs/your-camera.md measures why)."""
+    cropped size. The match threshold: :func:`self_similar_threshold` of the log's first minute
+    (docs/your-camera.md measures it against the fixed default)."""
     assert log.image is not None
     said = []
     if fov_deg is not None:
@@ -224,4 +298,16 @@ def log_camera_view(
             height = view.template_height
         view = dataclasses.replace(view, template_width=width, template_height=height)
         said.append(f"template {width}x{height} from the {cropped[0]}x{cropped[1]} (cropped) images")
+    if "match_threshold" not in given:
+        size = image_size(Path(log_path).parent / log.image[0], f"{log_path}: line 2, column image: {log.image[0]}")
+        draft_to = _draft_to(view)
+        names = log.image
+
+        def frame(k: int) -> np.ndarray:
+            return read_image(log_path, k + 2, names[k], size, draft_to)
+
+        threshold, line = self_similar_threshold(frame, log, view)
+        if threshold is not None:
+            view = dataclasses.replace(view, match_threshold=threshold)
+        said.append(line)
     return view, ("View matcher: " + "; ".join(said) + ".") if said else ""

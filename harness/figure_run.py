@@ -552,6 +552,8 @@ def replay(
     (:mod:`harness.budget`) is refused before anything runs unless ``yes``."""
     log = ObservationLog.read_csv(log_path)
     camera_view, camera_derivation = None, ""
+    if fov_deg is not None and log.image is None:
+        raise InputError(f"{log_path}: --fov: the log has no image column (a field of view is for camera logs)")
     if log.image is not None:
         camera_view, camera_derivation = _camera_log_view(log, log_path, ratslam_config, gtsam_config, config, fov_deg)
         from .camera_stream import match_camera_log

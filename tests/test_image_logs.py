@@ -5,6 +5,7 @@ one line naming the file and the log's line."""
 
 import json
 import math
+import re
 import shutil
 import struct
 import zlib
@@ -73,6 +74,28 @@ def test_an_image_folder_is_imported_and_replayed_through_both_systems(robot, ca
     header = (run / "config.toml").read_text()
     assert "template 32x8 from the 128x32 (cropped) images" in header
     assert "template_width = 32" in header and "template_height = 8" in header
+    # the threshold from the first minute's self-similarity, written where replay reads it back
+    derived = re.search(r"match threshold ([0-9.]+) = 0\.9 x ([0-9.]+), the median", header)
+    assert derived is not None and float(derived.group(1)) == pytest.approx(0.9 * float(derived.group(2)), rel=1e-3)
+    written = float(re.search(r"match_threshold = ([0-9.e-]+)", header).group(1))
+    assert written == pytest.approx(float(derived.group(1)), rel=1e-3) and written != ViewConfig().match_threshold
+
+
+def test_a_configured_threshold_and_template_are_kept(robot, tmp_path):
+    (tmp_path / "c.toml").write_text(
+        "[ratslam.view]\nmatch_threshold = 0.05\ntemplate_width = 16\nfield_of_view_deg = 40.0\n"
+    )
+    out = tmp_path / "log.csv"
+    paired = import_image_folder(robot / "frames", robot / "odom.tum")
+    write_image_log(out, paired.odometry, paired.images)  # no camera.toml: the configuration's field of view
+    from harness.config_file import read_config_file
+
+    run = replay(
+        out, tmp_path / "run", show_progress=False, recorder_factory=None, config=read_config_file(tmp_path / "c.toml")
+    )
+    config = (run / "config.toml").read_text()
+    assert "match_threshold = 0.05\n" in config and "field_of_view_deg = 40.0\n" in config
+    assert "template_width = 16\n" in config and "template_height = 4\n" in config  # rows in the images' aspect
 
 
 def test_the_template_is_derived_from_the_image_size():
