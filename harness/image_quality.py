@@ -45,7 +45,7 @@ def real_looking(frame: np.ndarray) -> np.ndarray:
         return np.asarray(decoded.convert("L"))
 
 
-CONDITIONS = {
+CONDITIONS: dict[str, dict] = {
     "64x16": dict(size=(64, 16)),
     "128x32": dict(size=(128, 32)),
     "320x240": dict(size=(320, 240), vfov=37.5),
