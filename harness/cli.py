@@ -479,7 +479,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
 
     rp = sub.add_parser("replay", help="replay an observation log (CSV) through both systems")
-    rp.add_argument("log", help="observation log: t,dt,v_trans,v_rot,scene_id[,gt_x,gt_y,gt_theta,false_positive]")
+    rp.add_argument(
+        "log",
+        help="observation log: t,dt,v_trans,v_rot,scene_id (or image)[,gt_x,gt_y,gt_theta,false_positive]",
+    )
     rp.add_argument("--out", required=True, help="run directory to write")
     rp.add_argument(
         "--config",
