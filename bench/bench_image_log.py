@@ -1,7 +1,7 @@
 """End-to-end speed of a camera log: ``ratslam-harness replay`` of a 15-minute 10 Hz image log.
 
     python bench/bench_image_log.py --out DIR [--world open_plan] [--duration 900] [--rate 10]
-        [--kind png64 png320 jpeg640] [--no-recording]
+        [--kind png64 png320 jpeg640] [--no-recording] [--draft-check]
 
 Each kind of log is made first (not timed), in ``DIR``:
 
@@ -13,7 +13,8 @@ Each kind of log is made first (not timed), in ``DIR``:
   into an image log by ``import images`` with the run's TUM odometry.
 
 Then each log is replayed end to end by the command a user runs, in a fresh process, and its
-wall time is printed with the multiple of real time.
+wall time is printed with the multiple of real time. ``--draft-check`` also matches the
+``jpeg640`` log's images with and without the reduced JPEG decoding.
 """
 
 from __future__ import annotations
@@ -50,9 +51,13 @@ def world_file(out: Path, world: str, rate: float, size: tuple[int, int], noise:
 def make_log(kind: str, out: Path, world: str, rate: float, duration: float) -> Path:
     log_path = out / f"{kind}.csv"
     if kind == "png64":
-        simulate_to_files(world_file(out, world, rate, (64, 16)), log_path, duration=duration, camera="forward")
+        simulate_to_files(
+            world_file(out, world, rate, (64, 16)), log_path, duration=duration, camera="forward", show_progress=False
+        )
     elif kind == "png320":
-        simulate_to_files(world_file(out, world, rate, (320, 240)), log_path, duration=duration, camera="forward")
+        simulate_to_files(
+            world_file(out, world, rate, (320, 240)), log_path, duration=duration, camera="forward", show_progress=False
+        )
     else:
         wf = world_file(out, world, rate, (320, 240), noise=0.03)
         sim = simulate_to_files(wf, out / "jpeg_source.csv", duration=duration, show_progress=False)
@@ -74,6 +79,32 @@ def make_log(kind: str, out: Path, world: str, rate: float, duration: float) -> 
     return log_path
 
 
+def draft_check(log_path: Path) -> None:
+    """Match a JPEG log's images at the fixed 0.04 with the reduced (draft) decoding and fully
+    decoded: seconds, templates and quality against the log's ground truth."""
+    from harness import camera_stream
+    from harness.view_quality import judge
+    from ratslam import ViewConfig
+    from worlds import ObservationLog
+
+    log = ObservationLog.read_csv(log_path)
+    config = ViewConfig(template_width=32, template_height=16)
+    reduced = camera_stream._draft_to
+    for name, draft in (("reduced", reduced), ("full", lambda c: None)):
+        camera_stream._draft_to = draft
+        t0 = time.perf_counter()
+        matched = camera_stream.match_camera_log(log, log_path, config)
+        elapsed = time.perf_counter() - t0
+        new = np.diff(np.maximum.accumulate(np.concatenate(([-1], matched.scene_id)))) > 0
+        q = judge(log.ground_truth(), log.t, matched.scene_id, new, matched.view_rotation)
+        print(
+            f"{name} decoding: matched in {elapsed:.1f} s, {int(new.sum())} templates, "
+            f"precision {q['precision']:.3f}, recall {q['recall']:.3f}",
+            flush=True,
+        )
+    camera_stream._draft_to = reduced
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True, type=Path)
@@ -82,6 +113,7 @@ def main(argv=None) -> None:
     ap.add_argument("--rate", type=float, default=10.0)
     ap.add_argument("--kind", nargs="+", default=["png64", "png320", "jpeg640"])
     ap.add_argument("--no-recording", action="store_true")
+    ap.add_argument("--draft-check", action="store_true", help="jpeg640: matching with and without reduced decoding")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     for kind in args.kind:
@@ -93,6 +125,8 @@ def main(argv=None) -> None:
         wall = time.perf_counter() - t0
         speed = f"{args.duration / wall:.1f}x real time"
         print(f"{kind}: {args.duration:g} s at {args.rate:g} Hz replayed in {wall:.1f} s, {speed}", flush=True)
+        if args.draft_check and kind == "jpeg640":
+            draft_check(log_path)
 
 
 if __name__ == "__main__":
