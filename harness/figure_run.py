@@ -12,8 +12,6 @@ import contextlib
 import dataclasses
 import hashlib
 import math
-import multiprocessing
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,7 +37,7 @@ from .results import FigureInfo, RunResult, VariantConfig, VariantResult, WorldS
 from .run_dir import provenance, staged_directory
 from .runner import StreamResult, TickError, dead_reckon, run_stream
 from .scale import derive_configs
-from .workers import map_in_processes, warm_kernels
+from .workers import fork_context, free_cores, map_in_processes, warm_kernels
 
 if TYPE_CHECKING:
     from .recorder import StreamRecorder
@@ -193,12 +191,6 @@ def ratslam_settings(
     if choice == "published":
         return published, {}, {"": published_derivation}
     return rs_cfg, {PUBLISHED: published}, {"": derivation, PUBLISHED: published_derivation}
-
-
-def _pool_context():
-    """Worker start method: fork where available (no re-import, kernels already loaded)."""
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
 
 
 def run_single_stream(
@@ -377,8 +369,7 @@ def _variant_job(args) -> VariantRun:
 
 def default_workers(n_jobs: int) -> int:
     """Processes for ``n_jobs`` independent runs: one per job, at most one per free core."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, min(n_jobs, cores))
+    return max(1, min(n_jobs, free_cores()))
 
 
 def run_figure(
@@ -445,7 +436,7 @@ def run_figure(
         if workers > 1 and len(jobs) > 1:
             # the figure travels by name: its claims are closures, which do not pickle
             warm_kernels()  # compiled once here, inherited by the forked workers
-            runs = map_in_processes(_variant_job, jobs, min(workers, len(jobs)), _pool_context())
+            runs = map_in_processes(_variant_job, jobs, min(workers, len(jobs)), fork_context())
         else:
             runs = [
                 _run_variant(

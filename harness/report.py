@@ -11,13 +11,14 @@ from pathlib import Path
 
 import numpy as np
 
-from worlds import load_world
+from worlds import World, load_world
 from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_tum
 
 from . import plots
 from .results import ClaimResult, RunResult, VariantResult
 from .run_dir import add_to_manifest
+from .workers import fork_context, free_cores, map_in_processes
 
 PUBLISHED = "published"  # the alternative RatSLAM run beside the defaults (harness.figure_run)
 
@@ -65,12 +66,19 @@ def write_panels(run_dir: Path, run: RunResult, maps: dict[str, np.ndarray]) -> 
     """The PNG panels of every variant (none without ground truth): the world, and for RatSLAM's
     defaults and, where it ran, the published preset, the paper's figure pair, (a) the pose-cell
     peak path with snaps and (b) the experience map with ground truth; and the pose graph. The
-    primary variant's are in ``run_dir``, the others' in their variant directories."""
+    primary variant's are in ``run_dir``, the others' in their variant directories. Several
+    variants' panels are drawn in parallel processes, one per free core (the same files)."""
     world = load_world(run.world.file) if run.world is not None and run.world.file else None
-    out = []
-    for vdir in _variant_dirs(run_dir, run):
-        out += _variant_panels(vdir, world, maps if vdir == run_dir else _maps(vdir / "maps.npz"))
-    return out
+    dirs = _variant_dirs(run_dir, run)
+    workers = min(len(dirs), free_cores())
+    if workers < 2:
+        return [p for vdir in dirs for p in _variant_panels(vdir, world, maps if vdir == run_dir else None)]
+    jobs = [(vdir, world) for vdir in dirs]
+    return [p for panels in map_in_processes(_panels_job, jobs, workers, fork_context()) for p in panels]
+
+
+def _panels_job(job: tuple[Path, World | None]) -> list[Path]:
+    return _variant_panels(*job)
 
 
 def _references(vdir: Path, maps: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray] | None:
@@ -84,7 +92,10 @@ def _references(vdir: Path, maps: dict[str, np.ndarray]) -> tuple[np.ndarray, np
     return _poses(traj / "ground_truth.tum"), _poses(traj / "odometry.tum")
 
 
-def _variant_panels(vdir: Path, world, maps: dict[str, np.ndarray]) -> list[Path]:
+def _variant_panels(vdir: Path, world: World | None, maps: dict[str, np.ndarray] | None = None) -> list[Path]:
+    """One variant's panels, from ``maps`` (default: its maps.npz)."""
+    if maps is None:
+        maps = _maps(vdir / "maps.npz")
     references = _references(vdir, maps)
     if references is None or len(references[0]) < 2:
         return []
