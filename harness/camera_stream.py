@@ -12,21 +12,25 @@ hands to ``step`` (the pose graph gets the same template numbers).
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import shutil
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
-from ratslam import ViewConfig
+from baselines import PoseGraphConfig
+from ratslam import RatSLAMConfig, ViewConfig
 from ratslam.view_matcher import ViewMatcher
 from worlds import ObservationLog, World
 from worlds.camera import Camera, to_uint8
 from worlds.observation_log import ObservationLogError
 
 from .run_dir import OutputError
+from .scale import measure_log
 
 PANORAMIC_TEMPLATE_WIDTH = 64
 """Template columns for the panoramic camera (5.6 degrees each)."""
@@ -42,19 +46,47 @@ def camera_view_config(kind: str, view: ViewConfig | None = None) -> ViewConfig:
     return view
 
 
-def camera_observations(world: World, log: ObservationLog, kind: str, seed: int, config: ViewConfig) -> ObservationLog:
+@dataclass(frozen=True)
+class CameraViews:
+    """What the camera showed and what the matcher matched, for the recording: each tick's image
+    (rows, columns; an array (N, rows, columns) or a list) and the stored templates (n,
+    template_height, template_width), both as 8-bit grey levels; tick k matched template
+    ``log.scene_id[k]``."""
+
+    images: np.ndarray | list[np.ndarray]
+    templates: np.ndarray
+
+
+def _templates(vm: ViewMatcher) -> np.ndarray:
+    return (
+        to_uint8(vm.templates)
+        if len(vm)
+        else np.zeros((0, vm.config.template_height, vm.config.template_width), np.uint8)
+    )
+
+
+def camera_views(
+    world: World, log: ObservationLog, kind: str, seed: int, config: ViewConfig
+) -> tuple[ObservationLog, CameraViews]:
     """A simulated log seen through the camera: each tick rendered at its true pose (``seed``: the
     sensor noise) and matched in order; scene numbers become template numbers with their rotations,
-    and no tick is labelled a false positive (wrong matches are the camera's own)."""
+    and no tick is labelled a false positive (wrong matches are the camera's own). Also returns
+    the images and templates (:class:`CameraViews`)."""
     frames = Camera(world, kind, seed=seed).render_poses(log.ground_truth(), log.t)
     vm = ViewMatcher(config)
     matches = [vm.match(frame) for frame in frames]
-    return dataclasses.replace(
+    log = dataclasses.replace(
         log,
         scene_id=np.array([m.template for m in matches], dtype=np.int64),
         view_rotation=np.array([m.rotation for m in matches]),
         false_positive=np.zeros(len(log), dtype=bool),
     )
+    return log, CameraViews(to_uint8(frames), _templates(vm))
+
+
+def camera_observations(world: World, log: ObservationLog, kind: str, seed: int, config: ViewConfig) -> ObservationLog:
+    """The log of :func:`camera_views` without the images."""
+    return camera_views(world, log, kind, seed, config)[0]
 
 
 def images_folder(log_path) -> Path:
@@ -100,24 +132,72 @@ def read_image(log_path, line: int, name: str) -> np.ndarray:
         raise ObservationLogError(f"{log_path}: line {line}, column image: {name}: {problem}") from None
 
 
-def match_camera_log(
+def match_camera_views(
     log: ObservationLog, log_path, config: ViewConfig, progress: Callable[[int, int], None] | None = None
-) -> ObservationLog:
+) -> tuple[ObservationLog, CameraViews | None]:
     """The camera log with each tick's template number as its scene number and the view's rotation
-    relative to the template, matched in order (a log without images is returned as it is)."""
+    relative to the template, matched in order, and its images and templates (a log without
+    images is returned as it is, with None)."""
     if log.image is None:
-        return log
+        return log, None
     vm = ViewMatcher(config)
     n = len(log)
     scene, rotation = np.empty(n, dtype=np.int64), np.empty(n)
+    images = []
     for k, name in enumerate(log.image):
+        image = read_image(log_path, k + 2, name)
         try:
-            m = vm.match(read_image(log_path, k + 2, name))
+            m = vm.match(image)
         except ValueError as e:
-            if isinstance(e, ObservationLogError):
-                raise
             raise ObservationLogError(f"{log_path}: line {k + 2}, column image: {name}: {e}") from None
+        images.append(image)
         scene[k], rotation[k] = m.template, m.rotation
         if progress is not None:
             progress(k + 1, n)
-    return dataclasses.replace(log, scene_id=scene, view_rotation=rotation)
+    return dataclasses.replace(log, scene_id=scene, view_rotation=rotation), CameraViews(images, _templates(vm))
+
+
+def match_camera_log(
+    log: ObservationLog, log_path, config: ViewConfig, progress: Callable[[int, int], None] | None = None
+) -> ObservationLog:
+    """The log of :func:`match_camera_views` without the images."""
+    return match_camera_views(log, log_path, config, progress)[0]
+
+
+def match_heading_sigma(view: ViewConfig) -> float:
+    """How well a match gives the heading (rad), from the matcher's settings alone: the view can be
+    anywhere within the shifts searched, uniformly: +-``max_shift_deg`` for a forward camera
+    (2 x 20 deg / sqrt(12) = 11.5 deg), the whole circle for a panoramic one (104 deg). The
+    analogue of the scene numbers' one 90 deg sector, (pi / 2) / sqrt(6)."""
+    span = 2.0 * math.pi if view.panoramic else 2.0 * math.radians(min(view.max_shift_deg, view.field_of_view_deg))
+    return span / math.sqrt(12.0)
+
+
+def camera_configs(
+    log: ObservationLog, view: ViewConfig, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphConfig | None = None
+) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
+    """RatSLAM and pose-graph configurations for a camera stream: ``ratslam`` / ``gtsam`` (default:
+    the defaults) with the settings sized for scene numbers re-derived from the matcher's settings
+    (``view``) and the stream of template numbers (``log``: its ``dt``, ``v_trans`` and
+    ``scene_id`` only, never the ground truth). The measurements behind each decision are in
+    docs/camera.md.
+
+    - Changed: the heading a match gives (the pose graph's ``closures.sigma_theta_rad``, RatSLAM's
+      ``yaw_bias.revisit_sigma_heading_deg``), :func:`match_heading_sigma`.
+    - Kept: the position a match gives (``closures.sigma_xy_m``, ``yaw_bias.revisit_sigma_xy_m``),
+      the path between revisits, ``local_view.min_age_ticks`` and the habituation
+      (``local_view.fatigue_rate``, ``fatigue_recovery``).
+    """
+    rs, pg = ratslam or RatSLAMConfig(), gtsam or PoseGraphConfig()
+    m = measure_log(log)
+    run_ticks = m.label_length / m.step if m.step > 0 and math.isfinite(m.label_length) else float("nan")
+    sigma_theta = match_heading_sigma(view)
+    rs = rs.replace(yaw_bias={"revisit_sigma_heading_deg": round(math.degrees(sigma_theta), 3)})
+    pg = pg.replace(closures={"sigma_theta_rad": sigma_theta})
+    text = (
+        f"Camera stream: a template lasts {m.label_length:.2f} m, {run_ticks:.1f} ticks (measured from its template "
+        f"numbers, no ground truth). Derived from the matcher's settings: a match gives the heading to "
+        f"{math.degrees(sigma_theta):.1f} deg (closures.sigma_theta_rad {sigma_theta:.4f}, "
+        f"yaw_bias.revisit_sigma_heading_deg {math.degrees(sigma_theta):.3f}); the rest as for scene numbers."
+    )
+    return rs, pg, text

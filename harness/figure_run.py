@@ -42,6 +42,7 @@ from .scale import derive_configs
 from .workers import map_in_processes, warm_kernels
 
 if TYPE_CHECKING:
+    from .camera_stream import CameraViews
     from .recorder import StreamRecorder
 
 RecorderFactory = Callable[[Path, World | None, ObservationLog, RatSLAMConfig, np.ndarray], "StreamRecorder"]
@@ -214,13 +215,15 @@ def run_single_stream(
     closure_true_distance: float = CLOSURE_TRUE_DISTANCE,
     extra_metrics: ExtraMetrics | None = None,
     alternatives: dict[str, RatSLAMConfig] | None = None,
+    camera: CameraViews | None = None,
 ) -> tuple[VariantResult, dict[str, VariantResult]]:
     """One stream through both systems (and the ``alternatives``: name -> another RatSLAM
     configuration, on the same stream in the same pass) into ``run_dir``: its effective
     ``config.toml`` (headed by ``config_header``), the recording (if a ``recorder_factory`` is
     given; removed if the run fails), the TUM trajectories and maps.npz, and its metrics (with the
     ``extra_metrics`` of a figure that has them; the caller adds the configuration record): the
-    run's, and each alternative's measured the same way (the pose graph's metrics are shared)."""
+    run's, and each alternative's measured the same way (the pose graph's metrics are shared).
+    ``camera``: a camera stream's views and templates, for the recording."""
     alternatives = alternatives or {}
     write_config_toml(run_dir / "config.toml", ratslam_config, gtsam_config, config_header)
     for name, config in alternatives.items():
@@ -231,7 +234,8 @@ def run_single_stream(
             config_header + f"\nRatSLAM here: the {name!r} configuration run beside it on the same stream.",
         )
     odometry = dead_reckon(log)  # once: the runner and the recorder share it
-    recorder = recorder_factory(run_dir, world, log, ratslam_config, odometry) if recorder_factory else None
+    shown = {} if camera is None else {"camera": camera}  # a scene-number run's factory call as ever
+    recorder = recorder_factory(run_dir, world, log, ratslam_config, odometry, **shown) if recorder_factory else None
     with recorder if recorder is not None else contextlib.nullcontext():
         on_tick = recorder.on_tick if recorder is not None else None
         res = run_stream(
@@ -306,6 +310,7 @@ def _run_variant(
     world = _variant_world(world, variant)
     log = _variant_log(fig, variant, world, duration, seed)
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
+    views = None
     if camera is not None:
         from .camera_stream import camera_view_config
 
@@ -313,9 +318,13 @@ def _run_variant(
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     if camera is not None and world is not None:  # the scene numbers replaced by the camera's views
-        from .camera_stream import camera_observations
+        from .camera_stream import camera_configs, camera_views
 
-        log = camera_observations(world, log, camera, seed, rs_cfg.view)
+        log, views = camera_views(world, log, camera, seed, rs_cfg.view)
+        rs_cfg, pg_cfg, camera_derivation = camera_configs(log, rs_cfg.view, rs_cfg, pg_cfg)
+        if config is not None:  # a configuration file's values still have the last word
+            rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+        derivation = (derivation + "\n" if derivation else "") + camera_derivation
     rs_cfg, alternatives, derivations = ratslam_settings(rs_cfg, ratslam, derivation)
     derivation = derivations[""]
     result, alt_results = run_single_stream(
@@ -332,6 +341,7 @@ def _run_variant(
         closure_true_distance=1.5 * _scene_cell_size(fig, world),
         extra_metrics=fig.extra_metrics,
         alternatives=alternatives,
+        camera=views,
     )
 
     def recorded(r: VariantResult, cfg: RatSLAMConfig, name: str = "") -> VariantResult:
@@ -533,19 +543,25 @@ def replay(
     the published algorithm, or both on the same stream. A grid or log beyond the size budget
     (:mod:`harness.budget`) is refused before anything runs unless ``yes``."""
     log = ObservationLog.read_csv(log_path)
+    views = None
     if log.image is not None:
-        from .camera_stream import match_camera_log
+        from .camera_stream import match_camera_views
 
         view = ratslam_config or RatSLAMConfig()
         if config is not None:
             view, _ = config.apply(view, gtsam_config or PoseGraphConfig())
-        log = match_camera_log(log, log_path, view.view)
+        log, views = match_camera_views(log, log_path, view.view)
     name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
         rs_cfg, pg_cfg = ratslam_config, gtsam_config
         derivation = "Configurations given by the caller (nothing derived from the log)."
     else:
         derived_rs, derived_pg, derivation = derive_configs(log)
+        if views is not None:  # a camera log: the settings sized for scene numbers re-derived
+            from .camera_stream import camera_configs
+
+            derived_rs, derived_pg, camera_text = camera_configs(log, view.view, derived_rs, derived_pg)
+            derivation += "\n" + camera_text
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
@@ -566,6 +582,7 @@ def replay(
             progress=_progress(log, f"replay {name}", show_progress),
             recorder_factory=recorder_factory,
             alternatives=alternatives,
+            camera=views,
         )
 
         def recorded(r: VariantResult, cfg: RatSLAMConfig, name: str = "") -> VariantResult:

@@ -23,6 +23,8 @@ static mirror transform so that y points up in the viewer, the data themselves a
 ``metrics/count/*``            experiences, links, snaps, keyframes (every ``every_map`` ticks),
                                accepted loop closures (every ``every_closures`` ticks)
 ``metrics/<key>``              anything passed to :meth:`Recorder.log_metrics`
+``camera/image``               a camera run's view each tick, grey levels (:meth:`Recorder.log_view`)
+``camera/template``            the stored template the view matched (or the new one it made), each tick
 =============================  ===================================================================
 
 The experience map and the GTSAM estimate change under correction/optimisation, so they are
@@ -181,6 +183,8 @@ class Recorder(_ClosedOnSuccess):
         ``(x0, y0, x1, y1)`` framing the world panel; default: the walls' bounding box.
     navigation:
         The default blueprint's goal-navigation panels (:mod:`harness.nav_experiment` logs them).
+    camera:
+        The default blueprint's camera panels (the view and its matched template, :meth:`log_view`).
     application_id, recording_id:
         Rerun identifiers (default recording id: random). The file's content is determined by
         the inputs; its bytes are not (rerun's chunk and row ids are time-based).
@@ -201,6 +205,7 @@ class Recorder(_ClosedOnSuccess):
         application_id: str = "ratslam-harness",
         recording_id: str | None = None,
         navigation: bool = False,
+        camera: bool = False,
     ):
         for name, v in (
             ("every_activity", every_activity),
@@ -230,7 +235,9 @@ class Recorder(_ClosedOnSuccess):
         # Ctrl-C always reaches Python. One read: a stream read in pieces repeats its footer.
         self._stream = rr.binary_stream(recording=self.rec)
         self.rec.send_blueprint(
-            default_blueprint(self.grid_shape, world_bounds, navigation), make_active=False, make_default=True
+            default_blueprint(self.grid_shape, world_bounds, navigation, camera=camera),
+            make_active=False,
+            make_default=True,
         )
         self._file = open(self._tmp, "wb")  # noqa: SIM115 (closed by close() or abort())
         self._closed = False
@@ -339,6 +346,14 @@ class Recorder(_ClosedOnSuccess):
         self._last = (k, t, ratslam, gtsam)
         if k % self.every_map == 0:
             self._log_maps(k, t, ratslam, gtsam)
+
+    def log_view(self, tick: int, t: float, image, template) -> None:
+        """Record a camera run's view at step ``tick`` and the template it matched (both 2-D
+        grey levels, uint8)."""
+        self.rec.set_time("tick", sequence=int(tick))
+        self.rec.set_time("sim_time", duration=float(t))
+        self.rec.log("camera/image", rr.Image(image, color_model="L", magnification_filter="Nearest"))
+        self.rec.log("camera/template", rr.Image(template, color_model="L", magnification_filter="Nearest"))
 
     def _log_activity(self, k: int, t: float, ratslam) -> None:
         proj = np.asarray(ratslam.pose_cell_activity).sum(axis=2)  # (nx, ny)
@@ -466,12 +481,18 @@ class StreamRecorder(_ClosedOnSuccess):
     """A :class:`Recorder` fed from an observation log, for the runner's per-tick callback.
 
     ``on_tick(k, ratslam, gtsam)`` logs tick k with the log's time, ground truth (if any),
-    dead-reckoned odometry and false-positive flag; ``close()`` finishes the file. Used as a
+    dead-reckoned odometry and false-positive flag (from a camera also the view and the template it
+    matched: ``camera``, a :class:`harness.camera_stream.CameraViews`, with ``views``, each tick's
+    template number); ``close()`` finishes the file. Used as a
     context manager, it closes on success and aborts (removes the partial file) on an error.
     """
 
-    def __init__(self, recorder: Recorder, t, odometry, ground_truth=None, false_positive=None):
+    def __init__(
+        self, recorder: Recorder, t, odometry, ground_truth=None, false_positive=None, camera=None, views=None
+    ):
         self.recorder = recorder
+        self._camera = camera  # harness.camera_stream.CameraViews, or None
+        self._views = None if views is None else np.asarray(views, dtype=np.int64)
         self._t = np.asarray(t, dtype=float)
         self._odom = np.asarray(odometry, dtype=float)
         self._gt = None if ground_truth is None else np.asarray(ground_truth, dtype=float)
@@ -487,6 +508,8 @@ class StreamRecorder(_ClosedOnSuccess):
             gtsam,
             bool(self._fp[k]) if self._fp is not None else False,
         )
+        if self._camera is not None and self._views is not None:
+            self.recorder.log_view(k, self._t[k], self._camera.images[k], self._camera.templates[self._views[k]])
 
     def close(self) -> Path:
         """Finish the recording (see :meth:`Recorder.close`)."""
@@ -497,14 +520,21 @@ class StreamRecorder(_ClosedOnSuccess):
         self.recorder.abort()
 
 
-def recorder_factory(run_dir, world, log, ratslam_config, odometry, **options) -> StreamRecorder:
+def recorder_factory(run_dir, world, log, ratslam_config, odometry, camera=None, **options) -> StreamRecorder:
     """``run_dir/recording.rrd`` for a run of ``log`` (an ``ObservationLog``) in ``world`` (a
     ``World`` or None) with RatSLAM configured by ``ratslam_config``; ``odometry`` (N, 3) is the
-    runner's dead reckoning of ``log`` (:func:`harness.runner.dead_reckon`); ``options`` go to
+    runner's dead reckoning of ``log`` (:func:`harness.runner.dead_reckon`); ``camera``: a camera
+    run's :class:`harness.camera_stream.CameraViews` (each tick's view and matched template
+    recorded, the log's scene numbers being the template numbers); ``options`` go to
     :class:`Recorder`."""
     rec = Recorder(
-        Path(run_dir) / "recording.rrd", None if world is None else world.walls, tuple(ratslam_config.shape), **options
+        Path(run_dir) / "recording.rrd",
+        None if world is None else world.walls,
+        tuple(ratslam_config.shape),
+        camera=camera is not None,
+        **options,
     )
     gt = log.ground_truth() if log.has_ground_truth else None
     fp = log.false_positive if log.has_ground_truth else None
-    return StreamRecorder(rec, log.t, odometry, gt, fp)
+    views = None if camera is None else log.scene_id
+    return StreamRecorder(rec, log.t, odometry, gt, fp, camera, views)
