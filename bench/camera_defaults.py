@@ -12,10 +12,9 @@ For each figure variant's simulated stream (seed 0, the figure's duration) seen 
    view's rotation);
 2. RatSLAM (the project's defaults) and GTSAM run on it with each setting of :func:`settings`:
    the scene-number defaults, :func:`harness.camera_stream.camera_configs` (what camera runs
-   use), that derivation with its change undone, and with each rule measured and not adopted
-   added to it alone (position sigmas scaled by the template's run as :mod:`harness.scale` does
-   for scene labels; a habituation giving a template a scene number's injection per tick;
-   ``min_age_ticks`` halved and doubled).
+   use), that derivation with each of its changes undone, and with each rule measured and not
+   adopted added to it alone (a habituation giving a template a scene number's injection per
+   tick; ``min_age_ticks`` halved and doubled).
 
 The scene-number stream of the same variant is measured the same way, as the reference.
 """
@@ -35,7 +34,7 @@ from harness.evaluate import evaluate_stream
 from harness.figure_run import _configs, _variant_log, _variant_world
 from harness.figures import get_figure
 from harness.runner import run_stream
-from harness.scale import REFERENCE_LABEL_LENGTH_M, REFERENCE_STEP_M, ladder, measure_log
+from harness.scale import REFERENCE_LABEL_LENGTH_M, REFERENCE_STEP_M, measure_log
 from ratslam import RatSLAMConfig
 from worlds import load_world
 
@@ -121,10 +120,9 @@ def settings(log, kind: str, view) -> dict[str, tuple[RatSLAMConfig, PoseGraphCo
         rs.replace(yaw_bias={"revisit_sigma_heading_deg": rs0.yaw_bias.revisit_sigma_heading_deg}),
         pg.replace(closures={"sigma_theta_rad": pg0.closures.sigma_theta_rad}),
     )
-    k = ladder(m.label_length / REFERENCE_LABEL_LENGTH_M)
-    out[f"+ position sigmas x{k:g} (label length)"] = (
-        rs.replace(yaw_bias={"revisit_sigma_xy_m": rs.yaw_bias.revisit_sigma_xy_m * k}),
-        pg.replace(closures={"sigma_xy_m": pg.closures.sigma_xy_m * k}),
+    out["derived, position sigmas as scenes"] = (
+        rs.replace(yaw_bias={"revisit_sigma_xy_m": rs0.yaw_bias.revisit_sigma_xy_m}),
+        pg.replace(closures={"sigma_xy_m": pg0.closures.sigma_xy_m}),
     )
     rate = habituation_rate(m.label_length / m.step, rs.local_view.fatigue_rate)
     out[f"+ fatigue_rate {rate:g} (same injection per tick)"] = (rs.replace(local_view={"fatigue_rate": rate}), pg)

@@ -30,7 +30,7 @@ from worlds.camera import Camera, to_uint8
 from worlds.observation_log import ObservationLogError
 
 from .run_dir import OutputError
-from .scale import measure_log
+from .scale import REFERENCE_LABEL_LENGTH_M, ladder, measure_log
 
 PANORAMIC_TEMPLATE_WIDTH = 64
 """Template columns for the panoramic camera (5.6 degrees each)."""
@@ -183,21 +183,32 @@ def camera_configs(
     docs/camera.md.
 
     - Changed: the heading a match gives (the pose graph's ``closures.sigma_theta_rad``, RatSLAM's
-      ``yaw_bias.revisit_sigma_heading_deg``), :func:`match_heading_sigma`.
-    - Kept: the position a match gives (``closures.sigma_xy_m``, ``yaw_bias.revisit_sigma_xy_m``),
-      the path between revisits, ``local_view.min_age_ticks`` and the habituation
+      ``yaw_bias.revisit_sigma_heading_deg``), from the matcher's settings
+      (:func:`match_heading_sigma`).
+    - Changed: the position a match gives (``closures.sigma_xy_m``, ``yaw_bias.revisit_sigma_xy_m``),
+      scaled as :func:`harness.scale.derive_configs` scales it for any log's labels: by the ratio of
+      the template's label length to a 1 m scene cell's, on the ladder of powers of sqrt(2).
+    - Kept: the path between revisits, ``local_view.min_age_ticks`` and the habituation
       (``local_view.fatigue_rate``, ``fatigue_recovery``).
     """
     rs, pg = ratslam or RatSLAMConfig(), gtsam or PoseGraphConfig()
     m = measure_log(log)
     run_ticks = m.label_length / m.step if m.step > 0 and math.isfinite(m.label_length) else float("nan")
+    k_xy = ladder(m.label_length / REFERENCE_LABEL_LENGTH_M)
     sigma_theta = match_heading_sigma(view)
-    rs = rs.replace(yaw_bias={"revisit_sigma_heading_deg": round(math.degrees(sigma_theta), 3)})
-    pg = pg.replace(closures={"sigma_theta_rad": sigma_theta})
+    rs = rs.replace(
+        yaw_bias={
+            "revisit_sigma_heading_deg": round(math.degrees(sigma_theta), 3),
+            "revisit_sigma_xy_m": rs.yaw_bias.revisit_sigma_xy_m * k_xy,
+        }
+    )
+    pg = pg.replace(closures={"sigma_theta_rad": sigma_theta, "sigma_xy_m": pg.closures.sigma_xy_m * k_xy})
     text = (
         f"Camera stream: a template lasts {m.label_length:.2f} m, {run_ticks:.1f} ticks (measured from its template "
-        f"numbers, no ground truth). Derived from the matcher's settings: a match gives the heading to "
-        f"{math.degrees(sigma_theta):.1f} deg (closures.sigma_theta_rad {sigma_theta:.4f}, "
-        f"yaw_bias.revisit_sigma_heading_deg {math.degrees(sigma_theta):.3f}); the rest as for scene numbers."
+        f"numbers, no ground truth): a match gives the position to closures.sigma_xy_m {pg.closures.sigma_xy_m:.3f} m "
+        f"(x{k_xy:g} of a {REFERENCE_LABEL_LENGTH_M} m label's; yaw_bias.revisit_sigma_xy_m the same). From the "
+        f"matcher's settings, the heading to {math.degrees(sigma_theta):.1f} deg (closures.sigma_theta_rad "
+        f"{sigma_theta:.4f}, yaw_bias.revisit_sigma_heading_deg {math.degrees(sigma_theta):.3f}). The rest as for "
+        "scene numbers."
     )
     return rs, pg, text

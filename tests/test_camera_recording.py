@@ -99,8 +99,8 @@ def test_the_heading_a_match_gives_comes_from_the_matchers_settings():
 
 def test_camera_configs_from_the_stream_alone():
     """The derivation reads the stream's template numbers, speed and tick (never its ground truth):
-    a forward stream's match gives the heading to +-20 degrees, and everything else stays at the
-    defaults."""
+    a forward stream's match gives the heading to +-20 degrees, its 5-tick templates the position
+    to a quarter of a 1 m scene cell's, and everything else stays at the defaults."""
     world = load_world("small_loop")
     log = simulate(world, duration=60.0, seed=0)
     n = len(log)
@@ -111,6 +111,11 @@ def test_camera_configs_from_the_stream_alone():
     rs, pg, text = camera_configs(log, view, rs0, pg0)
     assert pg.closures.sigma_theta_rad == pytest.approx(match_heading_sigma(view))
     assert rs.yaw_bias.revisit_sigma_heading_deg == pytest.approx(math.degrees(match_heading_sigma(view)), abs=1e-3)
-    assert rs.replace(yaw_bias={"revisit_sigma_heading_deg": rs0.yaw_bias.revisit_sigma_heading_deg}) == rs0
-    assert pg.replace(closures={"sigma_theta_rad": pg0.closures.sigma_theta_rad}) == pg0
+    # 5 ticks at 0.3 m/s and 7 Hz: 0.21 m, x0.25 of 0.9 m on the ladder
+    assert pg.closures.sigma_xy_m == pytest.approx(pg0.closures.sigma_xy_m / 4)
+    assert rs.yaw_bias.revisit_sigma_xy_m == pytest.approx(rs0.yaw_bias.revisit_sigma_xy_m / 4)
+    assert (
+        rs.replace(yaw_bias=dataclasses.asdict(rs0.yaw_bias)) == rs0
+        and pg.replace(closures=dataclasses.asdict(pg0.closures)) == pg0
+    )
     assert "5.0 ticks" in text and "11.5 deg" in text
