@@ -55,6 +55,8 @@ def _images(path, entity):
         if c.entity_path != entity:
             continue
         rb = c.to_record_batch()
+        if "tick" not in rb.schema.names:  # the static magnification filter
+            continue
         ticks = rb.column("tick").cast(pa.int64()).to_numpy()
         buffers = rb.column(next(n for n in rb.schema.names if n.endswith("Image:buffer"))).to_pylist()
         for k, buf in zip(ticks, buffers):
