@@ -174,7 +174,12 @@ def match_heading_sigma(view: ViewConfig) -> float:
 
 
 def camera_configs(
-    log: ObservationLog, view: ViewConfig, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphConfig | None = None
+    log: ObservationLog,
+    view: ViewConfig,
+    ratslam: RatSLAMConfig | None = None,
+    gtsam: PoseGraphConfig | None = None,
+    *,
+    scale_position: bool = True,
 ) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
     """RatSLAM and pose-graph configurations for a camera stream: ``ratslam`` / ``gtsam`` (default:
     the defaults) with the settings sized for scene numbers re-derived from the matcher's settings
@@ -187,14 +192,15 @@ def camera_configs(
       (:func:`match_heading_sigma`).
     - Changed: the position a match gives (``closures.sigma_xy_m``, ``yaw_bias.revisit_sigma_xy_m``),
       scaled as :func:`harness.scale.derive_configs` scales it for any log's labels: by the ratio of
-      the template's label length to a 1 m scene cell's, on the ladder of powers of sqrt(2).
+      the template's label length to a 1 m scene cell's, on the ladder of powers of sqrt(2)
+      (``scale_position=False`` where ``derive_configs`` has already done so: a replay).
     - Kept: the path between revisits, ``local_view.min_age_ticks`` and the habituation
       (``local_view.fatigue_rate``, ``fatigue_recovery``).
     """
     rs, pg = ratslam or RatSLAMConfig(), gtsam or PoseGraphConfig()
     m = measure_log(log)
     run_ticks = m.label_length / m.step if m.step > 0 and math.isfinite(m.label_length) else float("nan")
-    k_xy = ladder(m.label_length / REFERENCE_LABEL_LENGTH_M)
+    k_xy = ladder(m.label_length / REFERENCE_LABEL_LENGTH_M) if scale_position else 1.0
     sigma_theta = match_heading_sigma(view)
     rs = rs.replace(
         yaw_bias={
@@ -206,7 +212,12 @@ def camera_configs(
     text = (
         f"Camera stream: a template lasts {m.label_length:.2f} m, {run_ticks:.1f} ticks (measured from its template "
         f"numbers, no ground truth): a match gives the position to closures.sigma_xy_m {pg.closures.sigma_xy_m:.3f} m "
-        f"(x{k_xy:g} of a {REFERENCE_LABEL_LENGTH_M} m label's; yaw_bias.revisit_sigma_xy_m the same). From the "
+        + (
+            f"(x{k_xy:g} of a {REFERENCE_LABEL_LENGTH_M} m label's; yaw_bias.revisit_sigma_xy_m the same). "
+            if scale_position
+            else "(scaled to the label length above). "
+        )
+        + "From the "
         f"matcher's settings, the heading to {math.degrees(sigma_theta):.1f} deg (closures.sigma_theta_rad "
         f"{sigma_theta:.4f}, yaw_bias.revisit_sigma_heading_deg {math.degrees(sigma_theta):.3f}). The rest as for "
         "scene numbers."

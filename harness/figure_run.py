@@ -560,7 +560,9 @@ def replay(
         if views is not None:  # a camera log: the settings sized for scene numbers re-derived
             from .camera_stream import camera_configs
 
-            derived_rs, derived_pg, camera_text = camera_configs(log, view.view, derived_rs, derived_pg)
+            derived_rs, derived_pg, camera_text = camera_configs(
+                log, view.view, derived_rs, derived_pg, scale_position=False
+            )
             derivation += "\n" + camera_text
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if config is not None:
