@@ -79,13 +79,13 @@ def test_the_recording_shows_each_view_and_its_template(camera_run):
 def test_a_scene_number_recording_has_no_camera(tmp_path):
     """A run of scene numbers records no camera entity (its recording as before)."""
     from harness.recorder import recorder_factory
-    from harness.runner import dead_reckon, run_stream
+    from harness.runner import dead_reckon
 
     world = load_world("small_loop")
     log = simulate(world, duration=5.0, seed=0)
-    odometry = dead_reckon(log)
-    stream = recorder_factory(tmp_path, world, log, RatSLAMConfig(), odometry)
-    run_stream(log, RatSLAMConfig(), on_tick=stream.on_tick, odometry=odometry)
+    stream = recorder_factory(tmp_path, world, log, RatSLAMConfig(), dead_reckon(log))
+    for k in range(len(log)):
+        stream.on_tick(k, None, None)
     path = stream.close()
     assert not {c.entity_path for c in RrdReader(path).store().stream().to_chunks()} & {
         "/camera/image",
@@ -121,3 +121,16 @@ def test_camera_configs_from_the_stream_alone():
         and pg.replace(closures=dataclasses.asdict(pg0.closures)) == pg0
     )
     assert "5.0 ticks" in text and "11.5 deg" in text
+
+
+def test_a_bad_view_setting_in_a_configuration_file_is_one_line(tmp_path):
+    """The matcher's settings in a configuration file: a bad value is one line naming the file,
+    the table and the field."""
+    from harness.config_file import ConfigFileError, read_config_file
+
+    p = tmp_path / "c.toml"
+    p.write_text("[ratslam.view]\nmatch_threshold = -1\n")
+    with pytest.raises(ConfigFileError) as e:
+        read_config_file(p)
+    message = str(e.value)
+    assert "\n" not in message and message.startswith(f"{p}: [ratslam.view] match_threshold: must be")
