@@ -1,6 +1,7 @@
 """The settings sized for scene numbers, measured on camera streams (docs/camera.md).
 
     python bench/camera_defaults.py --figure fig7 fig13 --camera forward panoramic [--variants default wheel_errors]
+        [--duration S] [--only "scene defaults" "camera (derived)" ...]
 
 For each figure variant's simulated stream (seed 0, the figure's duration) seen through the camera:
 
@@ -138,6 +139,7 @@ def main() -> None:
     ap.add_argument("--variants", nargs="+", default=None, help="default: every variant of the figure")
     ap.add_argument("--duration", type=float, default=None)
     ap.add_argument("--stats-only", action="store_true")
+    ap.add_argument("--only", nargs="+", default=None, help="run only the settings whose label starts so")
     args = ap.parse_args()
     for name in args.figure:
         fig = get_figure(name)
@@ -158,6 +160,8 @@ def main() -> None:
                 if args.stats_only:
                     continue
                 for label, (rs, pg) in settings(clog, kind, view).items():
+                    if args.only and not any(label.startswith(o) for o in args.only):
+                        continue
                     rs = rs.replace(pose_cells=dataclasses.asdict(base_rs.pose_cells))
                     t0 = time.perf_counter()
                     res = run_stream(clog, rs, pg)
