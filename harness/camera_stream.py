@@ -6,7 +6,9 @@ column, relative to the log. :func:`write_images` writes a run's frames as PNGs 
 to the log (all or nothing: a staging folder moved into place); :func:`match_camera_log` reads them
 in order through :class:`ratslam.view_matcher.ViewMatcher` and returns the log with ``scene_id``
 = the matched template and ``view_rotation`` = its rotation, which :func:`harness.runner.run_stream`
-hands to ``step`` (the pose graph gets the same template numbers).
+hands to ``step`` (the pose graph gets the same template numbers). The images and the templates
+they matched travel on as :class:`CameraViews` for the recording, and :func:`camera_configs` gives
+the settings a camera stream gets in place of those sized for scene numbers.
 """
 
 from __future__ import annotations
