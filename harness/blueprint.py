@@ -30,13 +30,14 @@ def _trail() -> rrb.VisibleTimeRanges:
 NAV_TRAIL_ENTITIES = ("/world/nav/ratslam/driven", "/world/nav/gtsam/driven")
 
 
-def default_blueprint(grid_shape, world_bounds=None, navigation: bool = False) -> rrb.Blueprint:
+def default_blueprint(grid_shape, world_bounds=None, navigation: bool = False, camera: bool = False) -> rrb.Blueprint:
     """Blueprint for a recording written by :class:`harness.recorder.Recorder`.
 
     ``grid_shape``: pose-cell grid (nx, ny, ...), framing the activity panel;
     ``world_bounds``: ``(x0, y0, x1, y1)`` metres framing the world panel (None: fit the data);
     ``navigation``: a goal-navigation recording (:mod:`harness.nav_experiment`): the driven
-    paths as trails and a third time-series panel for ``/metrics/nav`` (success, time ratio).
+    paths as trails and a third time-series panel for ``/metrics/nav`` (success, time ratio);
+    ``camera``: a camera run's recording: the view and its matched template above the pose cells.
     """
     nx, ny = int(grid_shape[0]), int(grid_shape[1])
     world_kw: dict[str, Any] = {}
@@ -80,10 +81,15 @@ def default_blueprint(grid_shape, world_bounds=None, navigation: bool = False) -
                 name="Navigation: reached (0/1), success rate, time ratio", origin="/metrics/nav", axis_x=whole_run
             )
         )
+    right = rrb.Vertical(pose_cells, rrb.Horizontal(*series), row_shares=[3, 2])
+    if camera:
+        views = rrb.Horizontal(
+            rrb.Spatial2DView(name="Camera: the view", origin="/camera/image"),
+            rrb.Spatial2DView(name="The template it matched (or stored)", origin="/camera/template"),
+        )
+        right = rrb.Vertical(views, pose_cells, rrb.Horizontal(*series), row_shares=[1, 3, 2])
     return rrb.Blueprint(
-        rrb.Horizontal(
-            world, rrb.Vertical(pose_cells, rrb.Horizontal(*series), row_shares=[3, 2]), column_shares=[3, 2]
-        ),
+        rrb.Horizontal(world, right, column_shares=[3, 2]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="tick", play_state="following"),

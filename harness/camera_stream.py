@@ -6,7 +6,9 @@ column, relative to the log. :func:`write_images` writes a run's frames as PNGs 
 to the log (all or nothing: a staging folder moved into place); :func:`match_camera_log` reads them
 in order through :class:`ratslam.view_matcher.ViewMatcher` and returns the log with ``scene_id``
 = the matched template and ``view_rotation`` = its rotation, which :func:`harness.runner.run_stream`
-hands to ``step`` (the pose graph gets the same template numbers).
+hands to ``step`` (the pose graph gets the same template numbers). The images and the templates
+they matched travel on as :class:`CameraViews` for the recording, and :func:`camera_configs` gives
+the settings a camera stream gets in place of those sized for scene numbers.
 """
 
 from __future__ import annotations
@@ -18,12 +20,14 @@ import shutil
 from collections import deque
 from collections.abc import Callable, Collection, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
-from ratslam import ViewConfig
+from baselines import PoseGraphConfig
+from ratslam import RatSLAMConfig, ViewConfig
 from ratslam.view_matcher import ViewMatcher
 from worlds import ObservationLog, World
 from worlds.camera import Camera, to_uint8
@@ -38,6 +42,7 @@ from worlds.images import ImageReadError, image_size, read_grey
 from worlds.observation_log import ObservationLogError
 
 from .run_dir import OutputError
+from .scale import REFERENCE_LABEL_LENGTH_M, ladder, measure_log
 
 PANORAMIC_TEMPLATE_WIDTH = 64
 """Template columns for the panoramic camera (5.6 degrees each)."""
@@ -53,19 +58,47 @@ def camera_view_config(kind: str, view: ViewConfig | None = None) -> ViewConfig:
     return view
 
 
-def camera_observations(world: World, log: ObservationLog, kind: str, seed: int, config: ViewConfig) -> ObservationLog:
+@dataclass(frozen=True)
+class CameraViews:
+    """What the camera showed and what the matcher matched, for the recording: each tick's image
+    (rows, columns; an array (N, rows, columns) or a list) and the stored templates (n,
+    template_height, template_width), both as 8-bit grey levels; tick k matched template
+    ``log.scene_id[k]``."""
+
+    images: np.ndarray | list[np.ndarray]
+    templates: np.ndarray
+
+
+def _templates(vm: ViewMatcher) -> np.ndarray:
+    return (
+        to_uint8(vm.templates)
+        if len(vm)
+        else np.zeros((0, vm.config.template_height, vm.config.template_width), np.uint8)
+    )
+
+
+def camera_views(
+    world: World, log: ObservationLog, kind: str, seed: int, config: ViewConfig
+) -> tuple[ObservationLog, CameraViews]:
     """A simulated log seen through the camera: each tick rendered at its true pose (``seed``: the
     sensor noise) and matched in order; scene numbers become template numbers with their rotations,
-    and no tick is labelled a false positive (wrong matches are the camera's own)."""
+    and no tick is labelled a false positive (wrong matches are the camera's own). Also returns
+    the images and templates (:class:`CameraViews`)."""
     frames = Camera(world, kind, seed=seed).render_poses(log.ground_truth(), log.t)
     vm = ViewMatcher(config)
     matches = [vm.match(frame) for frame in frames]
-    return dataclasses.replace(
+    log = dataclasses.replace(
         log,
         scene_id=np.array([m.template for m in matches], dtype=np.int64),
         view_rotation=np.array([m.rotation for m in matches]),
         false_positive=np.zeros(len(log), dtype=bool),
     )
+    return log, CameraViews(to_uint8(frames), _templates(vm))
+
+
+def camera_observations(world: World, log: ObservationLog, kind: str, seed: int, config: ViewConfig) -> ObservationLog:
+    """The log of :func:`camera_views` without the images."""
+    return camera_views(world, log, kind, seed, config)[0]
 
 
 def write_images(images: np.ndarray, log_path, camera: CameraDescription | None = None) -> np.ndarray:
@@ -148,29 +181,48 @@ def _draft_to(config: ViewConfig) -> tuple[int, int] | None:
     return None if any(crops) else (config.template_width, config.template_height)
 
 
-def match_camera_log(
+def match_camera_views(
     log: ObservationLog, log_path, config: ViewConfig, progress: Callable[[int, int], None] | None = None
-) -> ObservationLog:
+) -> tuple[ObservationLog, CameraViews | None]:
     """The camera log with each tick's template number as its scene number and the view's rotation
-    relative to the template, matched in order (a log without images is returned as it is). Every
-    image must have the first one's size; a JPEG several times the template's size is decoded at
-    a reduced scale when nothing is cropped (:func:`worlds.images.read_grey`)."""
+    relative to the template, matched in order, and its views for the recording (:class:`CameraViews`;
+    a log without images is returned as it is, with None). Every image must have the first one's
+    size; a JPEG several times the template's size is decoded at a reduced scale when nothing is
+    cropped (:func:`worlds.images.read_grey`). Views wider than :data:`RECORDED_COLUMNS` are kept
+    for the recording averaged down to about that width."""
     if log.image is None:
-        return log
+        return log, None
     vm = ViewMatcher(config)
     n = len(log)
     size = image_size(Path(log_path).parent / log.image[0], f"{log_path}: line 2, column image: {log.image[0]}")
     draft_to = _draft_to(config)
     scene, rotation = np.empty(n, dtype=np.int64), np.empty(n)
+    recorded = []
     for k, image in enumerate(_images(log, log_path, size, draft_to)):
         try:
             m = vm.match(image)
         except ValueError as e:
             raise ObservationLogError(f"{log_path}: line {k + 2}, column image: {log.image[k]}: {e}") from None
+        recorded.append(_for_recording(image))
         scene[k], rotation[k] = m.template, m.rotation
         if progress is not None:
             progress(k + 1, n)
-    return dataclasses.replace(log, scene_id=scene, view_rotation=rotation)
+    views = CameraViews(recorded, _templates(vm))
+    return dataclasses.replace(log, scene_id=scene, view_rotation=rotation), views
+
+
+RECORDED_COLUMNS = 160
+"""A user's view wider than this is recorded averaged down by a whole factor (a long log of large
+images would otherwise be held whole in memory for the recording)."""
+
+
+def _for_recording(image: np.ndarray) -> np.ndarray:
+    f = -(-image.shape[1] // RECORDED_COLUMNS)
+    if f <= 1:
+        return image
+    rows, cols = (image.shape[0] // f) * f, (image.shape[1] // f) * f
+    blocks = image[:rows, :cols].reshape(rows // f, f, cols // f, f)
+    return blocks.mean(axis=(1, 3)).round().astype(np.uint8)
 
 
 FORWARD_TEMPLATE_WIDTH = 32
@@ -311,3 +363,71 @@ def log_camera_view(
             view = dataclasses.replace(view, match_threshold=threshold)
         said.append(line)
     return view, ("View matcher: " + "; ".join(said) + ".") if said else ""
+
+
+def match_camera_log(
+    log: ObservationLog, log_path, config: ViewConfig, progress: Callable[[int, int], None] | None = None
+) -> ObservationLog:
+    """The log of :func:`match_camera_views` without the images."""
+    return match_camera_views(log, log_path, config, progress)[0]
+
+
+def match_heading_sigma(view: ViewConfig) -> float:
+    """How well a match gives the heading (rad), from the matcher's settings alone: the view can be
+    anywhere within the shifts searched, uniformly: +-``max_shift_deg`` for a forward camera
+    (2 x 20 deg / sqrt(12) = 11.5 deg), the whole circle for a panoramic one (104 deg). The
+    analogue of the scene numbers' one 90 deg sector, (pi / 2) / sqrt(6)."""
+    span = 2.0 * math.pi if view.panoramic else 2.0 * math.radians(min(view.max_shift_deg, view.field_of_view_deg))
+    return span / math.sqrt(12.0)
+
+
+def camera_configs(
+    log: ObservationLog,
+    view: ViewConfig,
+    ratslam: RatSLAMConfig | None = None,
+    gtsam: PoseGraphConfig | None = None,
+    *,
+    scale_position: bool = True,
+) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
+    """RatSLAM and pose-graph configurations for a camera stream: ``ratslam`` / ``gtsam`` (default:
+    the defaults) with the settings sized for scene numbers re-derived from the matcher's settings
+    (``view``) and the stream of template numbers (``log``: its ``dt``, ``v_trans`` and
+    ``scene_id`` only, never the ground truth). The measurements behind each decision are in
+    docs/camera.md.
+
+    - Changed: the heading a match gives (the pose graph's ``closures.sigma_theta_rad``, RatSLAM's
+      ``yaw_bias.revisit_sigma_heading_deg``), from the matcher's settings
+      (:func:`match_heading_sigma`).
+    - Changed: the position a match gives (``closures.sigma_xy_m``, ``yaw_bias.revisit_sigma_xy_m``),
+      scaled as :func:`harness.scale.derive_configs` scales it for any log's labels: by the ratio of
+      the template's label length to a 1 m scene cell's, on the ladder of powers of sqrt(2)
+      (``scale_position=False`` where ``derive_configs`` has already done so: a replay).
+    - Kept: the path between revisits, ``local_view.min_age_ticks`` and the habituation
+      (``local_view.fatigue_rate``, ``fatigue_recovery``).
+    """
+    rs, pg = ratslam or RatSLAMConfig(), gtsam or PoseGraphConfig()
+    m = measure_log(log)
+    run_ticks = m.label_length / m.step if m.step > 0 and math.isfinite(m.label_length) else float("nan")
+    k_xy = ladder(m.label_length / REFERENCE_LABEL_LENGTH_M) if scale_position else 1.0
+    sigma_theta = match_heading_sigma(view)
+    rs = rs.replace(
+        yaw_bias={
+            "revisit_sigma_heading_deg": round(math.degrees(sigma_theta), 3),
+            "revisit_sigma_xy_m": rs.yaw_bias.revisit_sigma_xy_m * k_xy,
+        }
+    )
+    pg = pg.replace(closures={"sigma_theta_rad": sigma_theta, "sigma_xy_m": pg.closures.sigma_xy_m * k_xy})
+    text = (
+        f"Camera stream: a template lasts {m.label_length:.2f} m, {run_ticks:.1f} ticks (measured from its template "
+        f"numbers, no ground truth): a match gives the position to closures.sigma_xy_m {pg.closures.sigma_xy_m:.3f} m "
+        + (
+            f"(x{k_xy:g} of a {REFERENCE_LABEL_LENGTH_M} m label's; yaw_bias.revisit_sigma_xy_m the same). "
+            if scale_position
+            else "(scaled to the label length above). "
+        )
+        + "From the "
+        f"matcher's settings, the heading to {math.degrees(sigma_theta):.1f} deg (closures.sigma_theta_rad "
+        f"{sigma_theta:.4f}, yaw_bias.revisit_sigma_heading_deg {math.degrees(sigma_theta):.3f}). The rest as for "
+        "scene numbers."
+    )
+    return rs, pg, text

@@ -40,6 +40,7 @@ from .scale import derive_configs
 from .workers import fork_context, free_cores, map_in_processes, warm_kernels
 
 if TYPE_CHECKING:
+    from .camera_stream import CameraViews
     from .recorder import StreamRecorder
 
 RecorderFactory = Callable[[Path, World | None, ObservationLog, RatSLAMConfig, np.ndarray], "StreamRecorder"]
@@ -206,13 +207,15 @@ def run_single_stream(
     closure_true_distance: float = CLOSURE_TRUE_DISTANCE,
     extra_metrics: ExtraMetrics | None = None,
     alternatives: dict[str, RatSLAMConfig] | None = None,
+    camera: CameraViews | None = None,
 ) -> tuple[VariantResult, dict[str, VariantResult]]:
     """One stream through both systems (and the ``alternatives``: name -> another RatSLAM
     configuration, on the same stream in the same pass) into ``run_dir``: its effective
     ``config.toml`` (headed by ``config_header``), the recording (if a ``recorder_factory`` is
     given; removed if the run fails), the TUM trajectories and maps.npz, and its metrics (with the
     ``extra_metrics`` of a figure that has them; the caller adds the configuration record): the
-    run's, and each alternative's measured the same way (the pose graph's metrics are shared)."""
+    run's, and each alternative's measured the same way (the pose graph's metrics are shared).
+    ``camera``: a camera stream's views and templates, for the recording."""
     alternatives = alternatives or {}
     write_config_toml(run_dir / "config.toml", ratslam_config, gtsam_config, config_header)
     for name, config in alternatives.items():
@@ -223,7 +226,8 @@ def run_single_stream(
             config_header + f"\nRatSLAM here: the {name!r} configuration run beside it on the same stream.",
         )
     odometry = dead_reckon(log)  # once: the runner and the recorder share it
-    recorder = recorder_factory(run_dir, world, log, ratslam_config, odometry) if recorder_factory else None
+    shown = {} if camera is None else {"camera": camera}  # a scene-number run's factory call as ever
+    recorder = recorder_factory(run_dir, world, log, ratslam_config, odometry, **shown) if recorder_factory else None
     with recorder if recorder is not None else contextlib.nullcontext():
         on_tick = recorder.on_tick if recorder is not None else None
         res = run_stream(
@@ -298,6 +302,7 @@ def _run_variant(
     world = _variant_world(world, variant)
     log = _variant_log(fig, variant, world, duration, seed)
     rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
+    views = None
     if camera is not None:
         from .camera_stream import camera_view_config
 
@@ -305,9 +310,13 @@ def _run_variant(
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     if camera is not None and world is not None:  # the scene numbers replaced by the camera's views
-        from .camera_stream import camera_observations
+        from .camera_stream import camera_configs, camera_views
 
-        log = camera_observations(world, log, camera, seed, rs_cfg.view)
+        log, views = camera_views(world, log, camera, seed, rs_cfg.view)
+        rs_cfg, pg_cfg, camera_derivation = camera_configs(log, rs_cfg.view, rs_cfg, pg_cfg)
+        if config is not None:  # a configuration file's values still have the last word
+            rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
+        derivation = (derivation + "\n" if derivation else "") + camera_derivation
     rs_cfg, alternatives, derivations = ratslam_settings(rs_cfg, ratslam, derivation)
     derivation = derivations[""]
     result, alt_results = run_single_stream(
@@ -324,6 +333,7 @@ def _run_variant(
         closure_true_distance=1.5 * _scene_cell_size(fig, world),
         extra_metrics=fig.extra_metrics,
         alternatives=alternatives,
+        camera=views,
     )
 
     def recorded(r: VariantResult, cfg: RatSLAMConfig, name: str = "") -> VariantResult:
@@ -542,20 +552,27 @@ def replay(
     the published algorithm, or both on the same stream. A grid or log beyond the size budget
     (:mod:`harness.budget`) is refused before anything runs unless ``yes``."""
     log = ObservationLog.read_csv(log_path)
-    camera_view, camera_derivation = None, ""
+    camera_view, camera_derivation, views = None, "", None
     if fov_deg is not None and log.image is None:
         raise InputError(f"{log_path}: --fov: the log has no image column (a field of view is for camera logs)")
     if log.image is not None:
         camera_view, camera_derivation = _camera_log_view(log, log_path, ratslam_config, gtsam_config, config, fov_deg)
-        from .camera_stream import match_camera_log
+        from .camera_stream import match_camera_views
 
-        log = match_camera_log(log, log_path, camera_view)
+        log, views = match_camera_views(log, log_path, camera_view)
     name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
         rs_cfg, pg_cfg = ratslam_config, gtsam_config
         derivation = "Configurations given by the caller (nothing derived from the log)."
     else:
         derived_rs, derived_pg, derivation = derive_configs(log)
+        if camera_view is not None:  # a camera log: the settings sized for scene numbers re-derived
+            from .camera_stream import camera_configs
+
+            derived_rs, derived_pg, camera_text = camera_configs(
+                log, camera_view, derived_rs, derived_pg, scale_position=False
+            )
+            derivation += "\n" + camera_text
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
     if camera_view is not None:
         rs_cfg = dataclasses.replace(rs_cfg, view=camera_view)
@@ -579,6 +596,7 @@ def replay(
             progress=_progress(log, f"replay {name}", show_progress),
             recorder_factory=recorder_factory,
             alternatives=alternatives,
+            camera=views,
         )
 
         def recorded(r: VariantResult, cfg: RatSLAMConfig, name: str = "") -> VariantResult:

@@ -23,6 +23,8 @@ static mirror transform so that y points up in the viewer, the data themselves a
 ``metrics/count/*``            experiences, links, snaps, keyframes (every ``every_map`` ticks),
                                accepted loop closures (every ``every_closures`` ticks)
 ``metrics/<key>``              anything passed to :meth:`Recorder.log_metrics`
+``camera/image``               a camera run's view each tick, grey levels (:meth:`Recorder.log_view`)
+``camera/template``            the stored template the view matched (or the new one it made), each tick
 =============================  ===================================================================
 
 The experience map and the GTSAM estimate change under correction/optimisation, so they are
@@ -134,6 +136,40 @@ class _SegmentBuffer:
         self.n = 0
 
 
+class _ImageBuffer:
+    """Per-tick grey-level images of one entity, sent in columns every ``capacity`` rows (one
+    ``log`` call per image costs about 30 times as much)."""
+
+    def __init__(self, entity: str, capacity: int):
+        self.entity, self.capacity = entity, capacity
+        self.ticks: list[int] = []
+        self.times: list[float] = []
+        self.images: list[np.ndarray] = []
+
+    def add(self, tick: int, t: float, image) -> bool:
+        self.ticks.append(tick)
+        self.times.append(t)
+        self.images.append(np.array(image, dtype=np.uint8, copy=True))  # never alias the caller's buffer
+        return len(self.ticks) == self.capacity
+
+    def send(self, rec: rr.RecordingStream) -> None:
+        if not self.ticks:
+            return
+        formats = [
+            rr.components.ImageFormat(width=im.shape[1], height=im.shape[0], color_model="L", channel_datatype="U8")
+            for im in self.images
+        ]
+        rec.send_columns(
+            self.entity,
+            indexes=[
+                rr.TimeColumn("tick", sequence=np.array(self.ticks, np.int64)),
+                rr.TimeColumn("sim_time", duration=np.array(self.times, np.float64)),
+            ],
+            columns=rr.Image.columns(buffer=[im.ravel() for im in self.images], format=formats),
+        )
+        self.ticks, self.times, self.images = [], [], []
+
+
 class _ClosedOnSuccess:
     """Context manager: ``close()`` when the block succeeds, ``abort()`` on an error (or Ctrl-C),
     so a failing run leaves no half-written recording behind."""
@@ -181,6 +217,8 @@ class Recorder(_ClosedOnSuccess):
         ``(x0, y0, x1, y1)`` framing the world panel; default: the walls' bounding box.
     navigation:
         The default blueprint's goal-navigation panels (:mod:`harness.nav_experiment` logs them).
+    camera:
+        The default blueprint's camera panels (the view and its matched template, :meth:`log_view`).
     application_id, recording_id:
         Rerun identifiers (default recording id: random). The file's content is determined by
         the inputs; its bytes are not (rerun's chunk and row ids are time-based).
@@ -201,6 +239,7 @@ class Recorder(_ClosedOnSuccess):
         application_id: str = "ratslam-harness",
         recording_id: str | None = None,
         navigation: bool = False,
+        camera: bool = False,
     ):
         for name, v in (
             ("every_activity", every_activity),
@@ -216,6 +255,7 @@ class Recorder(_ClosedOnSuccess):
         self.grid_shape = tuple(int(g) for g in grid_shape)
         self.every_activity, self.every_map, self.align = int(every_activity), int(every_map), bool(align)
         self.every_closures = int(every_closures)
+        self.camera = bool(camera)
         walls = None if walls is None else np.asarray(walls, dtype=float).reshape(-1, 2, 2)
         if world_bounds is None and walls is not None and len(walls):
             pts = walls.reshape(-1, 2)
@@ -230,7 +270,9 @@ class Recorder(_ClosedOnSuccess):
         # Ctrl-C always reaches Python. One read: a stream read in pieces repeats its footer.
         self._stream = rr.binary_stream(recording=self.rec)
         self.rec.send_blueprint(
-            default_blueprint(self.grid_shape, world_bounds, navigation), make_active=False, make_default=True
+            default_blueprint(self.grid_shape, world_bounds, navigation, camera=camera),
+            make_active=False,
+            make_default=True,
         )
         self._file = open(self._tmp, "wb")  # noqa: SIM115 (closed by close() or abort())
         self._closed = False
@@ -239,6 +281,7 @@ class Recorder(_ClosedOnSuccess):
             name: _SegmentBuffer(name, int(flush_every))
             for name in ("world/ground_truth", "world/odometry", "pose_cells/peak")
         }
+        self._images = {name: _ImageBuffer(name, int(flush_every)) for name in ("camera/image", "camera/template")}
         cap = 1024
         self._gt = np.full((cap, 3), np.nan)  # ground truth per tick, for alignment and live ATE
         self._odom = np.full((cap, 3), np.nan)
@@ -261,6 +304,9 @@ class Recorder(_ClosedOnSuccess):
         xs, ys = np.arange(0, nx + 1, 4, dtype=float), np.arange(0, ny + 1, 4, dtype=float)
         lines = [[[x, 0], [x, ny]] for x in xs] + [[[0, y], [nx, y]] for y in ys]
         rec.log("pose_cells/grid", rr.LineStrips2D(lines, colors=[C_GRID], radii=[0.04]), static=True)
+        if self.camera:
+            for name in self._images:
+                rec.log(name, rr.Image.from_fields(magnification_filter="Nearest"), static=True)
 
     # ------------------------------------------------------------------ per tick
     def _grow(self, k: int) -> None:
@@ -339,6 +385,14 @@ class Recorder(_ClosedOnSuccess):
         self._last = (k, t, ratslam, gtsam)
         if k % self.every_map == 0:
             self._log_maps(k, t, ratslam, gtsam)
+
+    def log_view(self, tick: int, t: float, image, template) -> None:
+        """Record a camera run's view at step ``tick`` and the template it matched (both 2-D
+        grey levels, uint8)."""
+        for name, im in (("camera/image", image), ("camera/template", template)):
+            buf = self._images[name]
+            if buf.add(int(tick), float(t), im):
+                buf.send(self.rec)
 
     def _log_activity(self, k: int, t: float, ratslam) -> None:
         proj = np.asarray(ratslam.pose_cell_activity).sum(axis=2)  # (nx, ny)
@@ -424,6 +478,8 @@ class Recorder(_ClosedOnSuccess):
         """Send buffered per-tick segments now."""
         for buf in self._buffers.values():
             buf.send(self.rec)
+        for images in self._images.values():
+            images.send(self.rec)
 
     def _drain(self) -> None:
         data = self._stream.read(flush=True)
@@ -466,12 +522,18 @@ class StreamRecorder(_ClosedOnSuccess):
     """A :class:`Recorder` fed from an observation log, for the runner's per-tick callback.
 
     ``on_tick(k, ratslam, gtsam)`` logs tick k with the log's time, ground truth (if any),
-    dead-reckoned odometry and false-positive flag; ``close()`` finishes the file. Used as a
+    dead-reckoned odometry and false-positive flag (from a camera also the view and the template it
+    matched: ``camera``, a :class:`harness.camera_stream.CameraViews`, with ``views``, each tick's
+    template number); ``close()`` finishes the file. Used as a
     context manager, it closes on success and aborts (removes the partial file) on an error.
     """
 
-    def __init__(self, recorder: Recorder, t, odometry, ground_truth=None, false_positive=None):
+    def __init__(
+        self, recorder: Recorder, t, odometry, ground_truth=None, false_positive=None, camera=None, views=None
+    ):
         self.recorder = recorder
+        self._camera = camera  # harness.camera_stream.CameraViews, or None
+        self._views = None if views is None else np.asarray(views, dtype=np.int64)
         self._t = np.asarray(t, dtype=float)
         self._odom = np.asarray(odometry, dtype=float)
         self._gt = None if ground_truth is None else np.asarray(ground_truth, dtype=float)
@@ -487,6 +549,8 @@ class StreamRecorder(_ClosedOnSuccess):
             gtsam,
             bool(self._fp[k]) if self._fp is not None else False,
         )
+        if self._camera is not None and self._views is not None:
+            self.recorder.log_view(k, self._t[k], self._camera.images[k], self._camera.templates[self._views[k]])
 
     def close(self) -> Path:
         """Finish the recording (see :meth:`Recorder.close`)."""
@@ -497,14 +561,21 @@ class StreamRecorder(_ClosedOnSuccess):
         self.recorder.abort()
 
 
-def recorder_factory(run_dir, world, log, ratslam_config, odometry, **options) -> StreamRecorder:
+def recorder_factory(run_dir, world, log, ratslam_config, odometry, camera=None, **options) -> StreamRecorder:
     """``run_dir/recording.rrd`` for a run of ``log`` (an ``ObservationLog``) in ``world`` (a
     ``World`` or None) with RatSLAM configured by ``ratslam_config``; ``odometry`` (N, 3) is the
-    runner's dead reckoning of ``log`` (:func:`harness.runner.dead_reckon`); ``options`` go to
+    runner's dead reckoning of ``log`` (:func:`harness.runner.dead_reckon`); ``camera``: a camera
+    run's :class:`harness.camera_stream.CameraViews` (each tick's view and matched template
+    recorded, the log's scene numbers being the template numbers); ``options`` go to
     :class:`Recorder`."""
     rec = Recorder(
-        Path(run_dir) / "recording.rrd", None if world is None else world.walls, tuple(ratslam_config.shape), **options
+        Path(run_dir) / "recording.rrd",
+        None if world is None else world.walls,
+        tuple(ratslam_config.shape),
+        camera=camera is not None,
+        **options,
     )
     gt = log.ground_truth() if log.has_ground_truth else None
     fp = log.false_positive if log.has_ground_truth else None
-    return StreamRecorder(rec, log.t, odometry, gt, fp)
+    views = None if camera is None else log.scene_id
+    return StreamRecorder(rec, log.t, odometry, gt, fp, camera, views)

@@ -75,6 +75,13 @@ class ViewMatcher:
         """Stored templates (n, template_height, template_width), read-only copy."""
         return self._templates[: self._n].transpose(0, 2, 1).copy()
 
+    def template(self, number: int) -> np.ndarray:
+        """Stored template ``number`` (template_height, template_width), a copy: e.g. the image a
+        view matched, for display."""
+        if not 0 <= number < self._n:
+            raise IndexError(f"view: no template {number} (templates stored: {self._n})")
+        return self._templates[number].T.copy()
+
     def template_of(self, image) -> np.ndarray:
         """The template (template_height, template_width) of an image: cropped, averaged down,
         normalised as configured."""
