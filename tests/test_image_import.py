@@ -1,0 +1,437 @@
+"""Image logs from ROS bags (ROS 1 and ROS 2, raw and compressed image topics) and from video:
+bags written here from the simulator's rendered camera are imported and replayed end to end
+(both systems, ATE against the bag's ground truth, a report), and every bad input is one line that
+writes nothing."""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+import zlib
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rosbags")
+
+from PIL import Image
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
+
+from harness.camera_stream import match_camera_log, read_image
+from harness.config_file import read_config_file
+from harness.figure_run import replay
+from harness.runner import dead_reckon
+from ratslam import ViewConfig
+from tests.helpers import cli
+from worlds import ObservationLog, simulate
+from worlds.bag_images import import_bag_images
+from worlds.camera import Camera, to_uint8
+from worlds.errors import InputError
+from worlds.image_decode import MAX_PIXELS, ImageDecodeError, decode_compressed, decode_raw
+from worlds.image_log import camera_config_path, images_folder, latest_at_or_before
+
+STORES = {1: get_typestore(Stores.ROS1_NOETIC), 2: get_typestore(Stores.ROS2_HUMBLE)}
+T0 = 1000.0  # bag clock at the simulated run's start
+FX = 32.0 / math.tan(math.radians(25.0))  # a 64-column image with the forward camera's 50 degrees
+
+
+class Bag:
+    """A bag written with rosbags' own writers (ROS 1 file or ROS 2 directory)."""
+
+    def __init__(self, path, ros: int):
+        self.ros, self.ts = ros, STORES[ros]
+        self.writer = (Writer1(path) if ros == 1 else Writer2(path, version=8)).__enter__()
+        self.connections: dict[str, object] = {}
+
+    def header(self, t: float):
+        sec = int(math.floor(t))
+        stamp = self.ts.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9)))
+        extra = {"seq": 0} if self.ros == 1 else {}
+        return self.ts.types["std_msgs/msg/Header"](stamp=stamp, frame_id="camera", **extra)
+
+    def write(self, topic: str, msgtype: str, t: float, **fields):
+        T = self.ts.types
+        if topic not in self.connections:
+            self.connections[topic] = self.writer.add_connection(topic, msgtype, typestore=self.ts)
+        msg = T[msgtype](header=self.header(t), **fields)
+        raw = self.ts.serialize_ros1(msg, msgtype) if self.ros == 1 else self.ts.serialize_cdr(msg, msgtype)
+        self.writer.write(self.connections[topic], int(round(t * 1e9)), raw)
+
+    def topic(self, topic: str, msgtype: str):
+        """A connection without messages."""
+        self.connections[topic] = self.writer.add_connection(topic, msgtype, typestore=self.ts)
+
+    def pose(self, topic: str, t: float, x: float, y: float, th: float):
+        T = self.ts.types
+        pose = T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2)),
+        )
+        if topic == "/ground_truth":
+            self.write(topic, "geometry_msgs/msg/PoseStamped", t, pose=pose)
+            return
+        V = T["geometry_msgs/msg/Vector3"]
+        zero = T["geometry_msgs/msg/Twist"](linear=V(x=0.0, y=0.0, z=0.0), angular=V(x=0.0, y=0.0, z=0.0))
+        self.write(
+            topic,
+            "nav_msgs/msg/Odometry",
+            t,
+            child_frame_id="base_link",
+            pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+            twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=zero, covariance=np.zeros(36)),
+        )
+
+    def raw_image(self, topic, t, pixels: np.ndarray, encoding="mono8", step=None, big=0):
+        height, width = pixels.shape[:2]
+        data = pixels.reshape(height, -1)
+        if step is not None:  # rows padded to step bytes
+            data = np.hstack([data, np.zeros((height, step - data.shape[1]), np.uint8)])
+        self.write(
+            topic,
+            "sensor_msgs/msg/Image",
+            t,
+            height=height,
+            width=width,
+            encoding=encoding,
+            is_bigendian=big,
+            step=data.shape[1],
+            data=np.ascontiguousarray(data).ravel(),
+        )
+
+    def compressed(self, topic, t, data: bytes, fmt="png"):
+        self.write(topic, "sensor_msgs/msg/CompressedImage", t, format=fmt, data=np.frombuffer(data, np.uint8))
+
+    def camera_info(self, topic, t, fx, width, height):
+        k = np.array([fx, 0, width / 2, 0, fx, height / 2, 0, 0, 1], dtype=np.float64)
+        T = self.ts.types
+        names = ("D", "K", "R", "P") if self.ros == 1 else ("d", "k", "r", "p")
+        arrays = (np.zeros(5), k, np.eye(3).ravel(), np.zeros(12))
+        roi = T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+        self.write(
+            topic,
+            "sensor_msgs/msg/CameraInfo",
+            t,
+            height=height,
+            width=width,
+            distortion_model="plumb_bob",
+            binning_x=0,
+            binning_y=0,
+            roi=roi,
+            **dict(zip(names, arrays)),
+        )
+
+    def close(self):
+        self.writer.__exit__(None, None, None)
+
+
+def png(grey: np.ndarray) -> bytes:
+    import io
+
+    buf = io.BytesIO()
+    Image.fromarray(grey, mode="L").save(buf, format="PNG")
+    return buf.getvalue()
+
+
+@pytest.fixture(scope="module")
+def run():
+    """40 s of the small loop: the odometry dead-reckoned, the true poses, the rendered frames."""
+    log = simulate("small_loop", duration=40.0, seed=3)
+    frames = to_uint8(Camera("small_loop", "forward", seed=3).render_poses(log.ground_truth(), log.t))
+    odo = np.vstack([[0.0, 0.0, 0.0], dead_reckon(log)])
+    gt = np.vstack([log.ground_truth()[:1], log.ground_truth()])
+    t = np.concatenate(([log.t[0] - log.dt[0]], log.t)) + T0
+    return log, frames, odo, gt, t
+
+
+def write_run_bag(path, run, ros: int, compressed: bool, camera_info: bool = True, image_from: int = 0):
+    """The run as a bag: /odom, /ground_truth, /camera/image_raw(/compressed) at the tick times
+    (from tick ``image_from`` on), /camera/camera_info."""
+    _, frames, odo, gt, t = run
+    bag = Bag(path, ros)
+    for k in range(len(t)):
+        bag.pose("/odom", t[k], *odo[k])
+        bag.pose("/ground_truth", t[k], *gt[k])
+        if k >= 1 + image_from:
+            if compressed:
+                bag.compressed("/camera/image_raw/compressed", t[k], png(frames[k - 1]))
+            else:
+                bag.raw_image("/camera/image_raw", t[k], frames[k - 1])
+    if camera_info:
+        bag.camera_info("/camera/camera_info", t[0], FX, 64, 16)
+    bag.close()
+    return path
+
+
+def test_ros2_raw_and_ros1_compressed_bags_give_the_rendered_frames_and_field_of_view(run, tmp_path):
+    log, frames, *_ = run
+    for ros, compressed, topic in ((2, False, "/camera/image_raw"), (1, True, "/camera/image_raw/compressed")):
+        bag = write_run_bag(tmp_path / (f"ros{ros}.bag" if ros == 1 else "ros2"), run, ros, compressed)
+        out = tmp_path / f"ros{ros}.csv"
+        result = import_bag_images(bag, "/odom", topic, out, ground_truth_topic="/ground_truth")
+        got = ObservationLog.read_csv(out)
+        assert len(got) == len(log) and result.images == len(log) and result.dropped == 0
+        np.testing.assert_allclose(got.v_trans, log.v_trans, atol=1e-9)
+        np.testing.assert_allclose(got.ground_truth()[:, :2], log.ground_truth()[:, :2], atol=1e-9)
+        for k in (0, 111, len(log) - 1):  # each tick's own frame, bit for bit
+            assert np.array_equal(read_image(out, k + 2, got.image[k]), frames[k])
+        assert result.fov_deg == pytest.approx(50.0, abs=1e-9)
+        assert read_config_file(camera_config_path(out)) is not None
+        assert "field_of_view_deg = 50.0" in camera_config_path(out).read_text()
+
+
+def test_a_bag_replays_end_to_end_as_the_rendered_camera_log(run, tmp_path):
+    """Imported from a bag, the images give the matcher the same templates as the rendered
+    frames; both systems run, with ATE against the bag's ground truth and a report."""
+    log, frames, *_ = run
+    bag = write_run_bag(tmp_path / "run", run, 2, compressed=False)
+    out = tmp_path / "cam.csv"
+    r = cli("import", "rosbag", str(bag), "--odom", "/odom", "--gt", "/ground_truth", "--image", "/camera/image_raw",
+            "--out", str(out))  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert f"wrote {out} ({len(log)} ticks, {len(log)} images of 64 x 16" in r.stdout
+    assert "field of view 50.00 deg (/camera/camera_info: fx = " in r.stdout
+    got = ObservationLog.read_csv(out)
+    matched = match_camera_log(got, out, ViewConfig())
+    direct = [m.template for m in map(_matcher().match, frames)]
+    np.testing.assert_array_equal(matched.scene_id, direct)
+    run_dir = replay(out, tmp_path / "replay", show_progress=False, config=read_config_file(camera_config_path(out)))
+    metrics = json.loads((run_dir / "metrics.json").read_text())["variants"]["replay"]
+    assert (run_dir / "report.md").is_file() and (run_dir / "trajectories" / "ratslam.tum").is_file()
+    ate = {k: metrics[k] for k in metrics if k.startswith("ate")}
+    print(ate)
+    assert metrics["ticks"] == len(log) and metrics["experiences"] > 1 and metrics["keyframes"] > 1
+    assert set(metrics["ate"]) >= {"odometry", "experience_map", "gtsam"}
+
+
+def _matcher():
+    from ratslam.view_matcher import ViewMatcher
+
+    return ViewMatcher(ViewConfig())
+
+
+def test_ticks_before_the_first_image_are_dropped(run, tmp_path):
+    bag = write_run_bag(tmp_path / "late.bag", run, 1, compressed=False, camera_info=False, image_from=10)
+    out = tmp_path / "late.csv"
+    result = import_bag_images(bag, "/odom", "/camera/image_raw", out)
+    assert result.dropped == 10 and len(result.log) == len(run[0]) - 10 and result.fov_deg is None
+    assert not camera_config_path(out).exists()
+
+
+def test_pairing_takes_the_latest_image_at_or_before_each_tick():
+    frames = np.array([0.0, 0.25, 0.5, 0.75])
+    ticks = np.array([-0.1, 0.0, 0.2, 0.5, 0.74, 0.9])
+    np.testing.assert_array_equal(latest_at_or_before(frames, ticks), [-1, 0, 0, 2, 2, 3])
+
+
+# --- decoding --------------------------------------------------------------------------------
+
+
+def test_every_raw_encoding_with_row_padding_and_byte_order():
+    rng = np.random.default_rng(0)
+    rgb = rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    grey = np.asarray(Image.fromarray(rgb, "RGB").convert("L"))  # Pillow's luma
+    alpha = np.full((5, 7, 1), 9, np.uint8)
+    cases = {
+        "rgb8": rgb,
+        "bgr8": rgb[..., ::-1],
+        "rgba8": np.concatenate([rgb, alpha], axis=2),
+        "bgra8": np.concatenate([rgb[..., ::-1], alpha], axis=2),
+    }
+    for encoding, pixels in cases.items():
+        bpp = pixels.shape[2]
+        data = np.hstack([pixels.reshape(5, -1), np.full((5, 3), 77, np.uint8)])  # 3 bytes of padding a row
+        got = decode_raw(encoding, 5, 7, 7 * bpp + 3, False, data.ravel(), "x")
+        assert np.array_equal(got, grey), encoding
+    mono = rng.integers(0, 256, (5, 7), dtype=np.uint8)
+    assert np.array_equal(decode_raw("mono8", 5, 7, 7, False, mono.ravel(), "x"), mono)
+    deep = rng.integers(0, 65536, (5, 7), dtype=np.uint16)
+    for big, dtype in ((False, "<u2"), (True, ">u2")):
+        data = deep.astype(dtype).view(np.uint8)
+        assert np.array_equal(decode_raw("mono16", 5, 7, 14, big, data.ravel(), "x"), (deep >> 8).astype(np.uint8))
+    assert np.array_equal(decode_compressed(png(mono), "x"), mono)
+    jpeg = __import__("io").BytesIO()
+    Image.fromarray(rgb, "RGB").save(jpeg, format="JPEG", quality=95)
+    assert np.abs(decode_compressed(jpeg.getvalue(), "x").astype(int) - grey).max() < 20  # lossy
+
+
+def _png_header(width: int, height: int) -> bytes:
+    """A PNG that declares width x height grey pixels and carries one row of them."""
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b"")
+
+
+def test_decode_errors():
+    with pytest.raises(ImageDecodeError, match=r"x: encoding 'yuv422' not read"):
+        decode_raw("yuv422", 2, 2, 4, False, np.zeros(8, np.uint8), "x")
+    with pytest.raises(ImageDecodeError, match=r"x: 7 bytes of data, step x height needs 8 \(truncated\)"):
+        decode_raw("mono8", 2, 4, 4, False, np.zeros(7, np.uint8), "x")
+    with pytest.raises(ImageDecodeError, match="x: step 3 is less than"):
+        decode_raw("mono8", 2, 4, 3, False, np.zeros(8, np.uint8), "x")
+    side = int(math.isqrt(MAX_PIXELS)) + 1
+    with pytest.raises(ImageDecodeError, match=rf"x: declares {side} x {side} pixels, beyond"):
+        decode_compressed(_png_header(side, side), "x")
+    with pytest.raises(ImageDecodeError, match="exceeds limit"):  # Pillow's own bomb check, beyond ours
+        decode_compressed(_png_header(100_000, 100_000), "x")
+    with pytest.raises(ImageDecodeError, match="x: PNG image cannot be decoded"):
+        decode_compressed(png(np.zeros((40, 40), np.uint8))[:-30], "x")
+    with pytest.raises(ImageDecodeError, match="x: not a JPEG or PNG image"):
+        decode_compressed(b"GIF89a not really", "x")
+
+
+# --- bad bags: one line each, nothing written ----------------------------------------------------
+
+
+def _small_bag(path, images, ros: int = 2):
+    """Ten odometry ticks at 10 Hz and ``images(bag, t)`` called at each tick's time."""
+    bag = Bag(path, ros)
+    for k in range(11):
+        t = T0 + 0.1 * k
+        bag.pose("/odom", t, 0.05 * k, 0.0, 0.0)
+        images(bag, t, k)
+    bag.close()
+    return path
+
+
+def _bad(kind):
+    grey = np.zeros((8, 16), np.uint8)
+
+    def images(bag, t, k):
+        if kind == "empty":
+            if k == 0:
+                bag.topic("/cam/image", "sensor_msgs/msg/Image")
+        elif kind == "encoding":
+            bag.raw_image("/cam/image", t, grey, encoding="yuv422")
+        elif kind == "size":
+            bag.raw_image("/cam/image", t, grey if k < 4 else np.zeros((8, 20), np.uint8))
+        elif kind == "truncated":
+            bag.compressed("/cam/image", t, png(grey + k)[: -30 if k == 6 else None])
+        elif kind == "bomb":
+            bag.compressed("/cam/image", t, _png_header(5000, 5000) if k == 3 else png(grey))
+        elif kind == "format":
+            bag.compressed("/cam/image", t, png(grey), fmt="16UC1; compressedDepth")
+
+    return images
+
+
+@pytest.mark.parametrize(
+    "kind, expected",
+    [
+        ("empty", "topic /cam/image (images): no messages"),
+        ("encoding", "topic /cam/image: message 1: encoding 'yuv422' not read (read: mono8, mono16, rgb8"),
+        ("size", "topic /cam/image: message 5: 20 x 8 pixels, the first image was 16 x 8"),
+        ("truncated", "topic /cam/image: message 7: PNG image cannot be decoded"),
+        ("bomb", "topic /cam/image: message 4: declares 5000 x 5000 pixels, beyond the 16,777,216 accepted"),
+        ("format", "topic /cam/image: message 1: compressed format '16UC1; compressedDepth' not read"),
+    ],
+)
+def test_bad_image_topics_are_one_line_and_write_nothing(tmp_path, kind, expected):
+    bag = _small_bag(tmp_path / "bad", _bad(kind))
+    before = sorted(p.name for p in tmp_path.iterdir())
+    out = tmp_path / "log.csv"
+    with pytest.raises(InputError) as e:
+        import_bag_images(bag, "/odom", "/cam/image", out)
+    assert str(e.value).startswith(f"{bag}: ") and expected in str(e.value), str(e.value)
+    assert "\n" not in str(e.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # no log, no images, no staging folder
+    assert not images_folder(out).exists()
+
+
+def test_cli_refuses_an_unknown_encoding_in_one_line(tmp_path):
+    bag = _small_bag(tmp_path / "bad.bag", _bad("encoding"), ros=1)
+    out = tmp_path / "log.csv"
+    r = cli("import", "rosbag", str(bag), "--odom", "/odom", "--image", "/cam/image", "--out", str(out))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert f"{bag}: topic /cam/image: message 1: encoding 'yuv422' not read" in r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.bag"]
+
+
+# --- video ---------------------------------------------------------------------------------------
+
+
+def write_video(path, frames: np.ndarray, codec: str, fps: int = 7):
+    av = pytest.importorskip("av", reason="the video import needs PyAV: pip install -e '.[video]'")
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream(codec, rate=fps)
+        stream.width, stream.height = frames.shape[2], frames.shape[1]
+        stream.pix_fmt = "gray" if codec == "ffv1" else "yuv420p"
+        for grey in frames:
+            container.mux(stream.encode(av.VideoFrame.from_ndarray(grey, format="gray")))
+        container.mux(stream.encode())
+    return path
+
+
+def write_tum(path, t, poses):
+    rows = [
+        f"{float(tk)!r} {float(x)!r} {float(y)!r} 0 0 0 {math.sin(th / 2)!r} {math.cos(th / 2)!r}"
+        for tk, (x, y, th) in zip(t, poses)
+    ]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_a_video_replays_end_to_end(run, tmp_path, capsys):
+    """H.264 video (the container's own frame times) plus TUM odometry and ground truth: each tick
+    gets its frame (lossy: within a few grey levels), and both systems run on the matched views."""
+    from harness.cli import main
+
+    log, frames, odo, gt, t = run
+    video = write_video(tmp_path / "run.mp4", np.concatenate([frames[:1], frames]), "libx264")
+    odom, truth = write_tum(tmp_path / "odom.tum", t, odo), write_tum(tmp_path / "gt.tum", t, gt)
+    out = tmp_path / "video.csv"
+    assert main(["import", "video", str(video), "--odometry", str(odom), "--gt", str(truth), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"wrote {out} ({len(log)} ticks, {len(log)} images of 64 x 16 in video_images/, ground truth" in printed
+    assert "field of view unknown (a video does not say)" in printed
+    got = ObservationLog.read_csv(out)
+    for k in (0, 140, len(log) - 1):
+        assert np.abs(read_image(out, k + 2, got.image[k]).astype(int) - frames[k]).mean() < 3.0
+    metrics = json.loads((replay(out, tmp_path / "replay", show_progress=False) / "metrics.json").read_text())
+    replayed = metrics["variants"]["replay"]
+    print(replayed["ate"])
+    assert replayed["ticks"] == len(log) and set(replayed["ate"]) >= {"odometry", "experience_map", "gtsam"}
+
+
+def test_video_frame_times_from_fps_or_a_timestamps_file_are_exact(run, tmp_path):
+    from worlds.video_import import import_video
+
+    _, frames, odo, _, t = run
+    n = 30
+    video = write_video(tmp_path / "v.mkv", frames[:n], "ffv1")  # lossless
+    odom = write_tum(tmp_path / "odom.tum", t[:n], odo[:n])
+    stamps = tmp_path / "stamps.txt"
+    stamps.write_text("".join(f"{float(tk)!r}\n" for tk in t[:n]))
+    for kwargs in ({"fps": 7.0}, {"timestamps": stamps}):
+        out = tmp_path / f"{next(iter(kwargs))}.csv"
+        result = import_video(video, odom, out, **kwargs)
+        assert len(result.log) == n - 1 and result.images == n - 1  # tick j: the frame taken at pose j
+        for j in (0, n - 2):
+            assert np.array_equal(read_image(out, j + 2, result.log.image[j]), frames[j + 1])
+
+
+@pytest.mark.parametrize(
+    "case, expected",
+    [
+        ("short", "the video is shorter than the odometry: its 20 frames cover 1000.000-1002.857 s, the odometry"),
+        ("count", "20 frames, but {stamps} has 19 timestamps"),
+    ],
+)
+def test_bad_videos_are_one_line_and_write_nothing(run, tmp_path, case, expected):
+    from worlds.video_import import VideoImportError, import_video
+
+    _, frames, odo, _, t = run
+    video = write_video(tmp_path / "v.mkv", frames[:20], "ffv1")
+    odom = write_tum(tmp_path / "odom.tum", t[:40], odo[:40])
+    stamps = tmp_path / "stamps.txt"
+    stamps.write_text("".join(f"{float(tk)!r}\n" for tk in t[:19]))
+    before = sorted(p.name for p in tmp_path.iterdir())
+    with pytest.raises(VideoImportError) as e:
+        import_video(video, odom, tmp_path / "log.csv", timestamps=stamps if case == "count" else None)
+    assert str(e.value).startswith(f"{video}: ") and expected.format(stamps=stamps) in str(e.value), str(e.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before

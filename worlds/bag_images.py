@@ -1,0 +1,210 @@
+"""Image logs from ROS 1 or ROS 2 bags: odometry plus a camera topic (pure-Python ``rosbags``).
+
+* Odometry and the optional ground truth as in :mod:`worlds.bag_import` (ticks between
+  consecutive ``nav_msgs/Odometry`` messages, their header stamps).
+* Images: a ``sensor_msgs/Image`` (encodings :data:`worlds.image_decode.RAW_ENCODINGS`) or
+  ``sensor_msgs/CompressedImage`` (JPEG or PNG) topic. Each tick gets the latest image whose header
+  stamp is at or before the tick's time. Ticks before the first image are dropped, and so are
+  those after the last image by more than two image intervals or two ticks (the camera started
+  later or stopped earlier than the odometry; :func:`worlds.image_log.covered_ticks`). Only the
+  images some tick uses are decoded and written.
+* Field of view: from a ``sensor_msgs/CameraInfo`` topic (given, or found in the image topic's
+  namespace or the ones above it: ``/cam/camera_info`` for ``/cam/image_raw`` and
+  ``/cam/image_raw/compressed``), ``2 atan(width / (2 fx))`` with ``fx = K[0]`` and the width of
+  its region of interest if one is set (distortion and an off-centre principal point are not
+  taken into account), written beside the log (:mod:`worlds.image_log`).
+
+Every image's declared size and encoding are checked in a first pass over the topic, before any
+image is decoded: an unknown encoding, a size beyond :data:`~worlds.image_decode.MAX_PIXELS` (a
+decompression bomb), frames of changing size, an empty topic or images whose stamps miss the
+odometry are one line naming the bag, the topic (and message) and the problem; the second pass
+decodes and writes the images, and a truncated or invalid one is refused the same way. Nothing is
+written on error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PIL import Image as PILImage
+
+from .bag_import import BagImportError, _connection, _stamp, open_bag, read_odometry
+from .image_decode import COMPRESSED_FORMATS, RAW_ENCODINGS, ImageDecodeError, check_size, decode_compressed, decode_raw
+from .image_log import ImageLogWriter, check_outputs, covered_ticks, field_of_view_deg, latest_at_or_before
+from .observation_log import ObservationLog
+
+IMAGE = "sensor_msgs/msg/Image"
+COMPRESSED = "sensor_msgs/msg/CompressedImage"
+CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
+
+
+@dataclass(frozen=True)
+class ImageImport:
+    """What an image import wrote: the log, how many images, the ticks dropped before the first
+    image and after the last, the oldest image a tick was paired with (s), the images' (rows, columns), and the field
+    of view (degrees) with where it came from, or ``None`` with why not."""
+
+    log: ObservationLog
+    images: int
+    dropped: int
+    dropped_at_end: int
+    max_age_s: float
+    shape: tuple[int, ...]
+    fov_deg: float | None
+    fov_note: str
+
+
+def _declared(connection, msg, where: str) -> tuple[int, int]:
+    """An image message's (width, height) from its fields or its compressed stream's header,
+    checked before anything is decoded."""
+    if connection.msgtype == IMAGE:
+        if msg.encoding not in RAW_ENCODINGS:
+            raise ImageDecodeError(f"{where}: encoding {msg.encoding!r} not read (read: {', '.join(RAW_ENCODINGS)})")
+        size = int(msg.width), int(msg.height)
+    else:
+        fmt = str(msg.format).lower()
+        if "compresseddepth" in fmt or not any(f in fmt for f in ("jpeg", "jpg", "png")):
+            raise ImageDecodeError(f"{where}: compressed format {msg.format!r} not read (read: JPEG, PNG)")
+        try:
+            with PILImage.open(io.BytesIO(bytes(msg.data)), formats=list(COMPRESSED_FORMATS)) as im:
+                size = im.size
+        except PILImage.DecompressionBombError as e:
+            raise ImageDecodeError(f"{where}: {e}; not decoded") from None
+        except (OSError, ValueError, SyntaxError) as e:
+            raise ImageDecodeError(f"{where}: not a JPEG or PNG image ({type(e).__name__}: {e})") from None
+    check_size(*size, where)
+    return size
+
+
+def _decode(connection, msg, where: str) -> np.ndarray:
+    if connection.msgtype == IMAGE:
+        return decode_raw(msg.encoding, msg.height, msg.width, msg.step, bool(msg.is_bigendian), msg.data, where)
+    return decode_compressed(msg.data, where)
+
+
+def _image_stamps(reader, bag, topic: str, connections) -> np.ndarray:
+    """First pass: every image's header stamp, its encoding and declared size checked."""
+    stamps: list[float] = []
+    first: tuple[int, int] | None = None
+    for connection, _, raw in reader.messages(connections=connections):
+        msg = reader.deserialize(raw, connection.msgtype)
+        where = f"{bag}: topic {topic}: message {len(stamps) + 1}"
+        size = _declared(connection, msg, where)
+        if first is None:
+            first = size
+        elif size != first:
+            raise ImageDecodeError(
+                f"{where}: {size[0]} x {size[1]} pixels, the first image was {first[0]} x {first[1]}"
+            )
+        stamps.append(_stamp(msg.header))
+    if not stamps:
+        raise BagImportError(f"{bag}: topic {topic} (images): no messages")
+    return np.array(stamps)
+
+
+def _camera_info_topic(reader, bag, image_topic: str, given: str | None) -> str | None:
+    if given is not None:
+        _connection(reader, bag, given, (CAMERA_INFO,), "camera info")
+        return given
+    infos = {c.topic for c in reader.connections if c.msgtype == CAMERA_INFO}
+    parts = image_topic.split("/")
+    for k in range(len(parts) - 1, 0, -1):
+        namespace = "/".join(parts[:k])
+        found = sorted(t for t in infos if t.rsplit("/", 1)[0] == namespace)
+        if len(found) > 1:
+            raise BagImportError(
+                f"{bag}: topic {image_topic}: camera info topics {', '.join(found)} both fit; "
+                "choose one with --camera-info"
+            )
+        if found:
+            return found[0]
+    return None
+
+
+def _field_of_view(reader, bag, topic: str | None, explicit: bool) -> tuple[float | None, str]:
+    """The field of view (degrees) from the first camera-info message, and where it came from."""
+    if topic is None:
+        return None, "no sensor_msgs/CameraInfo topic for the images"
+    for connection, _, raw in reader.messages(
+        connections=_connection(reader, bag, topic, (CAMERA_INFO,), "camera info")
+    ):
+        msg = reader.deserialize(raw, connection.msgtype)
+        k = getattr(msg, "k", getattr(msg, "K", None))
+        fx = float(k[0]) if k is not None and len(k) == 9 else float("nan")
+        roi = msg.roi
+        width = int(roi.width) if int(roi.width) > 0 else int(msg.width)
+        if math.isfinite(fx) and fx > 0 and width > 0:
+            fov = field_of_view_deg(fx, width)
+            return fov, f"{topic}: fx = {fx:g} px, width {width} px, 2 atan(width / (2 fx)) = {fov:.2f} deg"
+        problem = f"{topic}: fx = K[0] = {fx:g} and width {width}: not a calibrated camera"
+        if explicit:
+            raise BagImportError(f"{bag}: topic {problem}")
+        return None, problem
+    if explicit:
+        raise BagImportError(f"{bag}: topic {topic} (camera info): no messages")
+    return None, f"{topic}: no messages"
+
+
+def import_bag_images(
+    bag,
+    odometry_topic: str,
+    image_topic: str,
+    out,
+    ground_truth_topic: str | None = None,
+    camera_info_topic: str | None = None,
+    twist: bool = False,
+) -> ImageImport:
+    """Write the image log ``out`` (CSV, images folder, field-of-view file) from a bag (see the
+    module docstring)."""
+    bag, out = Path(bag), Path(out)
+    check_outputs(out, (bag,))
+    reader = open_bag(bag)
+    try:
+        t, dt, v, w, gt = read_odometry(reader, bag, odometry_topic, ground_truth_topic, twist)
+        connections = _connection(reader, bag, image_topic, (IMAGE, COMPRESSED), "images")
+        info_topic = _camera_info_topic(reader, bag, image_topic, camera_info_topic)
+        fov, fov_note = _field_of_view(reader, bag, info_topic, camera_info_topic is not None)
+        stamps = _image_stamps(reader, bag, image_topic, connections)
+        order = np.argsort(stamps, kind="stable")
+        first, end = covered_ticks(stamps[order], t, dt)
+        if end - first < 2:
+            raise BagImportError(
+                f"{bag}: topic {image_topic}: image header stamps {stamps.min():.3f}-{stamps.max():.3f} s cover "
+                f"fewer than 2 of the odometry's ticks ({t[0]:.3f}-{t[-1]:.3f} s)"
+            )
+        pick = latest_at_or_before(stamps[order], t)
+        message = order[pick[first:end]]  # per kept tick, the ordinal of its image message
+        age = t[first:end] - stamps[message]
+        needed = set(message.tolist())
+        names: dict[int, str] = {}
+        with ImageLogWriter(out) as writer:
+            for k, (connection, _, raw) in enumerate(reader.messages(connections=connections)):
+                if k in needed:
+                    msg = reader.deserialize(raw, connection.msgtype)
+                    names[k] = writer.add(_decode(connection, msg, f"{bag}: topic {image_topic}: message {k + 1}"))
+            log = ObservationLog(
+                t=t[first:end],
+                dt=dt[first:end],
+                v_trans=v[first:end],
+                v_rot=w[first:end],
+                scene_id=np.full(end - first, -1, dtype=np.int64),
+                image=np.array([names[k] for k in message.tolist()], dtype=object),
+            )
+            if gt is not None:
+                log = dataclasses.replace(
+                    log,
+                    gt_x=gt[first:end, 0],
+                    gt_y=gt[first:end, 1],
+                    gt_theta=gt[first:end, 2],
+                    false_positive=np.zeros(len(log), dtype=bool),
+                )
+            writer.commit(log, fov, fov_note)
+            shape = writer.shape or ()
+    finally:
+        reader.close()
+    return ImageImport(log, len(names), first, len(t) - end, float(age.max()), shape, fov, fov_note)
