@@ -5,6 +5,7 @@ writes nothing."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import struct
@@ -16,153 +17,28 @@ import pytest
 pytest.importorskip("rosbags")
 
 from PIL import Image
-from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import Writer as Writer2
-from rosbags.typesys import Stores, get_typestore
 
 from harness.camera_stream import match_camera_log, read_image
 from harness.config_file import read_config_file
 from harness.figure_run import replay
-from harness.runner import dead_reckon
 from ratslam import ViewConfig
-from tests.helpers import cli
-from worlds import ObservationLog, simulate
+from tests.recordings import T0, Bag, png, simulated_run, write_run_bag, write_tum, write_video
+from worlds import ObservationLog
 from worlds.bag_images import import_bag_images
-from worlds.camera import Camera, to_uint8
 from worlds.errors import InputError
 from worlds.image_decode import MAX_PIXELS, ImageDecodeError, decode_compressed, decode_raw
 from worlds.image_log import camera_config_path, images_folder, latest_at_or_before
-
-STORES = {1: get_typestore(Stores.ROS1_NOETIC), 2: get_typestore(Stores.ROS2_HUMBLE)}
-T0 = 1000.0  # bag clock at the simulated run's start
-FX = 32.0 / math.tan(math.radians(25.0))  # a 64-column image with the forward camera's 50 degrees
-
-
-class Bag:
-    """A bag written with rosbags' own writers (ROS 1 file or ROS 2 directory)."""
-
-    def __init__(self, path, ros: int):
-        self.ros, self.ts = ros, STORES[ros]
-        self.writer = (Writer1(path) if ros == 1 else Writer2(path, version=8)).__enter__()
-        self.connections: dict[str, object] = {}
-
-    def header(self, t: float):
-        sec = int(math.floor(t))
-        stamp = self.ts.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9)))
-        extra = {"seq": 0} if self.ros == 1 else {}
-        return self.ts.types["std_msgs/msg/Header"](stamp=stamp, frame_id="camera", **extra)
-
-    def write(self, topic: str, msgtype: str, t: float, **fields):
-        T = self.ts.types
-        if topic not in self.connections:
-            self.connections[topic] = self.writer.add_connection(topic, msgtype, typestore=self.ts)
-        msg = T[msgtype](header=self.header(t), **fields)
-        raw = self.ts.serialize_ros1(msg, msgtype) if self.ros == 1 else self.ts.serialize_cdr(msg, msgtype)
-        self.writer.write(self.connections[topic], int(round(t * 1e9)), raw)
-
-    def topic(self, topic: str, msgtype: str):
-        """A connection without messages."""
-        self.connections[topic] = self.writer.add_connection(topic, msgtype, typestore=self.ts)
-
-    def pose(self, topic: str, t: float, x: float, y: float, th: float):
-        T = self.ts.types
-        pose = T["geometry_msgs/msg/Pose"](
-            position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
-            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2)),
-        )
-        if topic == "/ground_truth":
-            self.write(topic, "geometry_msgs/msg/PoseStamped", t, pose=pose)
-            return
-        V = T["geometry_msgs/msg/Vector3"]
-        zero = T["geometry_msgs/msg/Twist"](linear=V(x=0.0, y=0.0, z=0.0), angular=V(x=0.0, y=0.0, z=0.0))
-        self.write(
-            topic,
-            "nav_msgs/msg/Odometry",
-            t,
-            child_frame_id="base_link",
-            pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
-            twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=zero, covariance=np.zeros(36)),
-        )
-
-    def raw_image(self, topic, t, pixels: np.ndarray, encoding="mono8", step=None, big=0):
-        height, width = pixels.shape[:2]
-        data = pixels.reshape(height, -1)
-        if step is not None:  # rows padded to step bytes
-            data = np.hstack([data, np.zeros((height, step - data.shape[1]), np.uint8)])
-        self.write(
-            topic,
-            "sensor_msgs/msg/Image",
-            t,
-            height=height,
-            width=width,
-            encoding=encoding,
-            is_bigendian=big,
-            step=data.shape[1],
-            data=np.ascontiguousarray(data).ravel(),
-        )
-
-    def compressed(self, topic, t, data: bytes, fmt="png"):
-        self.write(topic, "sensor_msgs/msg/CompressedImage", t, format=fmt, data=np.frombuffer(data, np.uint8))
-
-    def camera_info(self, topic, t, fx, width, height):
-        k = np.array([fx, 0, width / 2, 0, fx, height / 2, 0, 0, 1], dtype=np.float64)
-        T = self.ts.types
-        names = ("D", "K", "R", "P") if self.ros == 1 else ("d", "k", "r", "p")
-        arrays = (np.zeros(5), k, np.eye(3).ravel(), np.zeros(12))
-        roi = T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
-        self.write(
-            topic,
-            "sensor_msgs/msg/CameraInfo",
-            t,
-            height=height,
-            width=width,
-            distortion_model="plumb_bob",
-            binning_x=0,
-            binning_y=0,
-            roi=roi,
-            **dict(zip(names, arrays)),
-        )
-
-    def close(self):
-        self.writer.__exit__(None, None, None)
-
-
-def png(grey: np.ndarray) -> bytes:
-    import io
-
-    buf = io.BytesIO()
-    Image.fromarray(grey, mode="L").save(buf, format="PNG")
-    return buf.getvalue()
 
 
 @pytest.fixture(scope="module")
 def run():
     """40 s of the small loop: the odometry dead-reckoned, the true poses, the rendered frames."""
-    log = simulate("small_loop", duration=40.0, seed=3)
-    frames = to_uint8(Camera("small_loop", "forward", seed=3).render_poses(log.ground_truth(), log.t))
-    odo = np.vstack([[0.0, 0.0, 0.0], dead_reckon(log)])
-    gt = np.vstack([log.ground_truth()[:1], log.ground_truth()])
-    t = np.concatenate(([log.t[0] - log.dt[0]], log.t)) + T0
-    return log, frames, odo, gt, t
+    return simulated_run("small_loop", 40.0, 3)
 
 
-def write_run_bag(path, run, ros: int, compressed: bool, camera_info: bool = True, image_from: int = 0):
-    """The run as a bag: /odom, /ground_truth, /camera/image_raw(/compressed) at the tick times
-    (from tick ``image_from`` on), /camera/camera_info."""
-    _, frames, odo, gt, t = run
-    bag = Bag(path, ros)
-    for k in range(len(t)):
-        bag.pose("/odom", t[k], *odo[k])
-        bag.pose("/ground_truth", t[k], *gt[k])
-        if k >= 1 + image_from:
-            if compressed:
-                bag.compressed("/camera/image_raw/compressed", t[k], png(frames[k - 1]))
-            else:
-                bag.raw_image("/camera/image_raw", t[k], frames[k - 1])
-    if camera_info:
-        bag.camera_info("/camera/camera_info", t[0], FX, 64, 16)
-    bag.close()
-    return path
+@pytest.fixture
+def av():
+    return pytest.importorskip("av", reason="the video import needs PyAV: pip install -e '.[video]'")
 
 
 def test_ros2_raw_and_ros1_compressed_bags_give_the_rendered_frames_and_field_of_view(run, tmp_path):
@@ -182,28 +58,38 @@ def test_ros2_raw_and_ros1_compressed_bags_give_the_rendered_frames_and_field_of
         assert "field_of_view_deg = 50.0" in camera_config_path(out).read_text()
 
 
-def test_a_bag_replays_end_to_end_as_the_rendered_camera_log(run, tmp_path):
-    """Imported from a bag, the images give the matcher the same templates as the rendered
-    frames; both systems run, with ATE against the bag's ground truth and a report."""
+def test_a_bag_replays_end_to_end_as_the_rendered_camera_log(run, tmp_path, capsys):
+    """Imported from a bag, the images give the matcher the same templates as the rendered frames,
+    and both systems' trajectories (ATE against the bag's ground truth, a report) are those of the
+    same run written by ``simulate --camera``."""
+    from harness.camera_stream import write_images
+    from harness.cli import main
+
     log, frames, *_ = run
     bag = write_run_bag(tmp_path / "run", run, 2, compressed=False)
     out = tmp_path / "cam.csv"
-    r = cli("import", "rosbag", str(bag), "--odom", "/odom", "--gt", "/ground_truth", "--image", "/camera/image_raw",
-            "--out", str(out))  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    assert f"wrote {out} ({len(log)} ticks, {len(log)} images of 64 x 16" in r.stdout
-    assert "field of view 50.00 deg (/camera/camera_info: fx = " in r.stdout
-    got = ObservationLog.read_csv(out)
-    matched = match_camera_log(got, out, ViewConfig())
-    direct = [m.template for m in map(_matcher().match, frames)]
-    np.testing.assert_array_equal(matched.scene_id, direct)
-    run_dir = replay(out, tmp_path / "replay", show_progress=False, config=read_config_file(camera_config_path(out)))
-    metrics = json.loads((run_dir / "metrics.json").read_text())["variants"]["replay"]
-    assert (run_dir / "report.md").is_file() and (run_dir / "trajectories" / "ratslam.tum").is_file()
-    ate = {k: metrics[k] for k in metrics if k.startswith("ate")}
-    print(ate)
-    assert metrics["ticks"] == len(log) and metrics["experiences"] > 1 and metrics["keyframes"] > 1
-    assert set(metrics["ate"]) >= {"odometry", "experience_map", "gtsam"}
+    argv = ["import", "rosbag", str(bag), "--odom", "/odom", "--gt", "/ground_truth", "--image", "/camera/image_raw"]
+    assert main([*argv, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"wrote {out} ({len(log)} ticks, {len(log)} images of 64 x 16 in cam_images/, ground truth" in printed
+    assert "field of view 50.00 deg (/camera/camera_info: fx = " in printed
+    matched = match_camera_log(ObservationLog.read_csv(out), out, ViewConfig())
+    np.testing.assert_array_equal(matched.scene_id, [m.template for m in map(_matcher().match, frames)])
+    config = read_config_file(camera_config_path(out))
+    reference = tmp_path / "ref.csv"
+    dataclasses.replace(log, image=write_images(frames / 255.0, reference)).write_csv(reference)
+    metrics = {}
+    for name, path in (("bag", out), ("simulated", reference)):
+        run_dir = replay(path, tmp_path / name, show_progress=False, config=config)
+        assert (run_dir / "report.md").is_file() and (run_dir / "trajectories" / "ratslam.tum").is_file()
+        metrics[name] = json.loads((run_dir / "metrics.json").read_text())["variants"]["replay"]
+    got, want = metrics["bag"], metrics["simulated"]
+    print(got["ate"])
+    assert got["ticks"] == len(log) and got["experiences"] == want["experiences"] > 1
+    assert got["keyframes"] == want["keyframes"] > 1
+    assert set(got["ate"]) >= {"odometry", "experience_map", "gtsam"}
+    for key, value in want["ate"].items():  # the bag's odometry: pose differences, equal to 1e-12
+        assert got["ate"][key] == pytest.approx(value, rel=1e-6, abs=1e-9), key
 
 
 def _matcher():
@@ -343,40 +229,22 @@ def test_bad_image_topics_are_one_line_and_write_nothing(tmp_path, kind, expecte
     assert not images_folder(out).exists()
 
 
-def test_cli_refuses_an_unknown_encoding_in_one_line(tmp_path):
+def test_cli_refuses_an_unknown_encoding_in_one_line(tmp_path, capsys):
+    from harness.cli import main
+
     bag = _small_bag(tmp_path / "bad.bag", _bad("encoding"), ros=1)
     out = tmp_path / "log.csv"
-    r = cli("import", "rosbag", str(bag), "--odom", "/odom", "--image", "/cam/image", "--out", str(out))
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
-    assert f"{bag}: topic /cam/image: message 1: encoding 'yuv422' not read" in r.stderr
+    assert main(["import", "rosbag", str(bag), "--odom", "/odom", "--image", "/cam/image", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert f"{bag}: topic /cam/image: message 1: encoding 'yuv422' not read" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.bag"]
 
 
 # --- video ---------------------------------------------------------------------------------------
 
 
-def write_video(path, frames: np.ndarray, codec: str, fps: int = 7):
-    av = pytest.importorskip("av", reason="the video import needs PyAV: pip install -e '.[video]'")
-    with av.open(str(path), "w") as container:
-        stream = container.add_stream(codec, rate=fps)
-        stream.width, stream.height = frames.shape[2], frames.shape[1]
-        stream.pix_fmt = "gray" if codec == "ffv1" else "yuv420p"
-        for grey in frames:
-            container.mux(stream.encode(av.VideoFrame.from_ndarray(grey, format="gray")))
-        container.mux(stream.encode())
-    return path
-
-
-def write_tum(path, t, poses):
-    rows = [
-        f"{float(tk)!r} {float(x)!r} {float(y)!r} 0 0 0 {math.sin(th / 2)!r} {math.cos(th / 2)!r}"
-        for tk, (x, y, th) in zip(t, poses)
-    ]
-    path.write_text("\n".join(rows) + "\n")
-    return path
-
-
-def test_a_video_replays_end_to_end(run, tmp_path, capsys):
+def test_a_video_replays_end_to_end(run, tmp_path, capsys, av):
     """H.264 video (the container's own frame times) plus TUM odometry and ground truth: each tick
     gets its frame (lossy: within a few grey levels), and both systems run on the matched views."""
     from harness.cli import main
@@ -398,7 +266,7 @@ def test_a_video_replays_end_to_end(run, tmp_path, capsys):
     assert replayed["ticks"] == len(log) and set(replayed["ate"]) >= {"odometry", "experience_map", "gtsam"}
 
 
-def test_video_frame_times_from_fps_or_a_timestamps_file_are_exact(run, tmp_path):
+def test_video_frame_times_from_fps_or_a_timestamps_file_are_exact(run, tmp_path, av):
     from worlds.video_import import import_video
 
     _, frames, odo, _, t = run
@@ -422,7 +290,7 @@ def test_video_frame_times_from_fps_or_a_timestamps_file_are_exact(run, tmp_path
         ("count", "20 frames, but {stamps} has 19 timestamps"),
     ],
 )
-def test_bad_videos_are_one_line_and_write_nothing(run, tmp_path, case, expected):
+def test_bad_videos_are_one_line_and_write_nothing(run, tmp_path, case, expected, av):
     from worlds.video_import import VideoImportError, import_video
 
     _, frames, odo, _, t = run
