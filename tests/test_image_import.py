@@ -27,7 +27,7 @@ from worlds import ObservationLog
 from worlds.bag_images import import_bag_images
 from worlds.errors import InputError
 from worlds.image_decode import MAX_PIXELS, ImageDecodeError, decode_compressed, decode_raw
-from worlds.image_log import camera_config_path, images_folder, latest_at_or_before
+from worlds.image_log import camera_config_path, covered_ticks, images_folder, latest_at_or_before
 
 
 @pytest.fixture(scope="module")
@@ -110,6 +110,10 @@ def test_pairing_takes_the_latest_image_at_or_before_each_tick():
     frames = np.array([0.0, 0.25, 0.5, 0.75])
     ticks = np.array([-0.1, 0.0, 0.2, 0.5, 0.74, 0.9])
     np.testing.assert_array_equal(latest_at_or_before(frames, ticks), [-1, 0, 0, 2, 2, 3])
+    # a camera that starts late and stops early: ticks before its first frame, and beyond the last
+    # frame plus two frame intervals, are dropped
+    ticks = np.arange(1, 21) * 0.1
+    assert covered_ticks(frames + 0.22, ticks, np.full(20, 0.1)) == (2, 14)  # 0.3 ... 1.4 s (0.97 + 2 x 0.25)
 
 
 # --- decoding --------------------------------------------------------------------------------
@@ -138,6 +142,9 @@ def test_every_raw_encoding_with_row_padding_and_byte_order():
         data = deep.astype(dtype).view(np.uint8)
         assert np.array_equal(decode_raw("mono16", 5, 7, 14, big, data.ravel(), "x"), (deep >> 8).astype(np.uint8))
     assert np.array_equal(decode_compressed(png(mono), "x"), mono)
+    png16 = __import__("io").BytesIO()
+    Image.fromarray(deep).save(png16, format="PNG")
+    assert np.array_equal(decode_compressed(png16.getvalue(), "x"), (deep >> 8).astype(np.uint8))
     jpeg = __import__("io").BytesIO()
     Image.fromarray(rgb, "RGB").save(jpeg, format="JPEG", quality=95)
     assert np.abs(decode_compressed(jpeg.getvalue(), "x").astype(int) - grey).max() < 20  # lossy
@@ -286,12 +293,17 @@ def test_video_frame_times_from_fps_or_a_timestamps_file_are_exact(run, tmp_path
 @pytest.mark.parametrize(
     "case, expected",
     [
+        ("bomb", "declares 64 x 16 pixels, beyond the 1,000 accepted (a decompression bomb or a mistake)"),
         ("short", "the video is shorter than the odometry: its 20 frames cover 1000.000-1002.857 s, the odometry"),
         ("count", "20 frames, but {stamps} has 19 timestamps"),
     ],
 )
-def test_bad_videos_are_one_line_and_write_nothing(run, tmp_path, case, expected, av):
-    from worlds.video_import import VideoImportError, import_video
+def test_bad_videos_are_one_line_and_write_nothing(run, tmp_path, case, expected, av, monkeypatch):
+    from worlds import image_decode
+    from worlds.video_import import import_video
+
+    if case == "bomb":  # the limit lowered below the video's size: refused before a frame is decoded
+        monkeypatch.setattr(image_decode, "MAX_PIXELS", 1000)
 
     _, frames, odo, _, t = run
     video = write_video(tmp_path / "v.mkv", frames[:20], "ffv1")
@@ -299,7 +311,7 @@ def test_bad_videos_are_one_line_and_write_nothing(run, tmp_path, case, expected
     stamps = tmp_path / "stamps.txt"
     stamps.write_text("".join(f"{float(tk)!r}\n" for tk in t[:19]))
     before = sorted(p.name for p in tmp_path.iterdir())
-    with pytest.raises(VideoImportError) as e:
+    with pytest.raises(InputError) as e:
         import_video(video, odom, tmp_path / "log.csv", timestamps=stamps if case == "count" else None)
     assert str(e.value).startswith(f"{video}: ") and expected.format(stamps=stamps) in str(e.value), str(e.value)
     assert sorted(p.name for p in tmp_path.iterdir()) == before
