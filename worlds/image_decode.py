@@ -77,21 +77,34 @@ def decode_raw(encoding: str, height: int, width: int, step: int, is_bigendian: 
     return _luma(pixels[..., :3])
 
 
-def decode_compressed(data, where: str) -> np.ndarray:
-    """JPEG or PNG bytes as (height, width) grey levels (uint8); the declared size is checked
-    before decoding, a truncated or invalid stream is refused."""
-    raw = bytes(data) if not isinstance(data, bytes) else data
+def _open_compressed(raw: bytes, where: str) -> Image.Image:
+    """A JPEG or PNG opened lazily (its header read, nothing decoded), its declared size checked."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", Image.DecompressionBombWarning)
-            im = Image.open(io.BytesIO(raw), formats=list(COMPRESSED_FORMATS))  # reads the header only
+            im = Image.open(io.BytesIO(raw), formats=list(COMPRESSED_FORMATS))
     except (Image.DecompressionBombError, Image.DecompressionBombWarning) as e:
         raise ImageDecodeError(f"{where}: {e}; not decoded") from None
     except (OSError, ValueError, SyntaxError) as e:
         raise ImageDecodeError(f"{where}: not a JPEG or PNG image ({type(e).__name__}: {e})") from None
-    with im:
-        width, height = im.size
-        check_size(width, height, where)
+    try:
+        check_size(*im.size, where)
+    except ImageDecodeError:
+        im.close()
+        raise
+    return im
+
+
+def compressed_size(data, where: str) -> tuple[int, int]:
+    """The (width, height) a JPEG or PNG declares in its header, checked; nothing is decoded."""
+    with _open_compressed(bytes(data), where) as im:
+        return im.size
+
+
+def decode_compressed(data, where: str) -> np.ndarray:
+    """JPEG or PNG bytes as (height, width) grey levels (uint8); the declared size is checked
+    before decoding, a truncated or invalid stream is refused."""
+    with _open_compressed(bytes(data), where) as im:
         try:
             im.load()
         except (OSError, ValueError, SyntaxError) as e:
