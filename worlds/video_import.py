@@ -5,8 +5,10 @@
   ground truth kept, its scene numbers dropped).
 * Frame times, on the odometry's clock: ``timestamps``, a file of one time per frame (seconds, one
   a line, ``#`` comments allowed); or frame ``k`` at ``start + k / fps``; or by default the
-  container's presentation times, ``start + (pts_k - pts_0) x time base``. ``start`` is the time of
-  the odometry's first pose (the start of its first tick).
+  container's presentation times, ``start + (pts_k - pts_0) x time base`` (a frame up to half a
+  time base after a tick still counts as at it: containers round times to their time base, e.g.
+  a millisecond in Matroska). ``start`` is the time of the odometry's first pose (the start of
+  its first tick).
 * Each tick gets the latest frame at or before it (:func:`worlds.image_log.latest_at_or_before`);
   ticks before the first frame are dropped; only frames some tick uses are converted and written.
 
@@ -106,9 +108,9 @@ def _read_timestamps(path) -> np.ndarray:
     return np.array(rows)
 
 
-def _packet_times(av, video: Path) -> tuple[np.ndarray, float, tuple[int, int]]:
+def _packet_times(av, video: Path) -> tuple[np.ndarray, float, float, tuple[int, int]]:
     """Presentation times (s, from the first) of the video's frames, read from its packets without
-    decoding, their time base's frame interval, and the declared (width, height)."""
+    decoding, the frame interval, the time base (s) and the declared (width, height)."""
     try:
         with av.open(str(video)) as container:
             if not container.streams.video:
@@ -125,7 +127,7 @@ def _packet_times(av, video: Path) -> tuple[np.ndarray, float, tuple[int, int]]:
         raise VideoImportError(f"{video}: no frames")
     times = (np.array(pts, dtype=np.float64) - pts[0]) * base
     interval = 1.0 / rate if rate > 0 else float(np.median(np.diff(times))) if len(times) > 1 else 0.0
-    return times, interval, size
+    return times, interval, base, size
 
 
 def import_video(
@@ -144,7 +146,8 @@ def import_video(
         raise VideoImportError(f"{video}: no such video file")
     check_outputs(out, (video, odometry, timestamps, ground_truth))
     log, start = read_odometry(odometry, ground_truth)
-    times, interval, (width, height) = _packet_times(av, video)
+    times, interval, base, (width, height) = _packet_times(av, video)
+    slack = 1e-6  # frame times given exactly; the container's are rounded to its time base
     n = len(times)
     if timestamps is not None:
         frame_t = _read_timestamps(timestamps)
@@ -156,6 +159,7 @@ def import_video(
         interval = 1.0 / fps
     else:
         frame_t = start + times
+        slack = max(slack, 0.5 * base)
     video_end = float(frame_t[-1] + interval)
     last_tick = float(log.t[-1])
     if video_end < last_tick - float(np.median(log.dt)):
@@ -164,7 +168,7 @@ def import_video(
             f"{frame_t[0]:.3f}-{video_end:.3f} s, "
             f"the odometry ({odometry}) runs {start:.3f}-{last_tick:.3f} s"
         )
-    pick = latest_at_or_before(frame_t, log.t)
+    pick = latest_at_or_before(frame_t, log.t, slack)
     first = int(np.searchsorted(pick, 0))
     if len(log) - first < 2:
         raise VideoImportError(
