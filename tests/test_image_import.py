@@ -18,10 +18,11 @@ pytest.importorskip("rosbags")
 
 from PIL import Image
 
+from baselines import PoseGraphConfig
 from harness.camera_stream import match_camera_log, read_image
 from harness.config_file import read_config_file
 from harness.figure_run import replay
-from ratslam import ViewConfig
+from ratslam import RatSLAMConfig, ViewConfig
 from tests.recordings import T0, Bag, png, simulated_run, write_run_bag, write_tum, write_video
 from worlds import ObservationLog
 from worlds.bag_images import import_bag_images
@@ -317,3 +318,22 @@ def test_bad_videos_are_one_line_and_write_nothing(run, tmp_path, case, expected
         import_video(video, odom, tmp_path / "log.csv", timestamps=stamps if case == "count" else None)
     assert str(e.value).startswith(f"{video}: ") and expected.format(stamps=stamps) in str(e.value), str(e.value)
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_field_of_view_from_camera_info_found_given_or_uncalibrated(tmp_path):
+    grey = np.zeros((8, 16), np.uint8)
+
+    def images(bag, t, k):
+        bag.raw_image("/cam/left/image", t, grey)
+        if k == 0:
+            bag.camera_info("/cam/left/camera_info", t, 8.0, 16, 8)  # 2 atan(16 / 16) = 90 degrees
+            bag.camera_info("/cam/uncalibrated", t, 0.0, 16, 8)
+
+    bag = _small_bag(tmp_path / "bag", images)
+    found = import_bag_images(bag, "/odom", "/cam/left/image", tmp_path / "a.csv")
+    assert found.fov_deg == pytest.approx(90.0) and "/cam/left/camera_info: fx = 8 px" in found.fov_note
+    rs, _ = read_config_file(camera_config_path(tmp_path / "a.csv")).apply(RatSLAMConfig(), PoseGraphConfig())
+    assert rs.view.field_of_view_deg == found.fov_deg  # what replay --config LOG.camera.toml uses
+    with pytest.raises(InputError, match=r"bag: topic /cam/uncalibrated: fx = K\[0\] = 0 and width 16: not a calibr"):
+        import_bag_images(bag, "/odom", "/cam/left/image", tmp_path / "b.csv", camera_info_topic="/cam/uncalibrated")
+    assert not (tmp_path / "b.csv").exists()
