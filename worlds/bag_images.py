@@ -26,35 +26,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .bag_import import BagImportError, _connection, _stamp, open_bag, read_odometry
 from .image_decode import RAW_ENCODINGS, ImageDecodeError, check_size, compressed_size, decode_compressed, decode_raw
-from .image_log import ImageLogWriter, check_outputs, covered_ticks, field_of_view_deg, latest_at_or_before
+from .image_log import ImageImport, ImageLogWriter, check_outputs, covered_ticks, field_of_view_deg, latest_at_or_before
 from .observation_log import ObservationLog
 
 IMAGE = "sensor_msgs/msg/Image"
 COMPRESSED = "sensor_msgs/msg/CompressedImage"
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
-
-
-@dataclass(frozen=True)
-class ImageImport:
-    """What an image import wrote: the log, how many images, the ticks dropped before the first
-    image and after the last, the oldest image a tick was paired with (s), the images' (rows, columns), and the field
-    of view (degrees) with where it came from, or ``None`` with why not."""
-
-    log: ObservationLog
-    images: int
-    dropped: int
-    dropped_at_end: int
-    max_age_s: float
-    shape: tuple[int, ...]
-    fov_deg: float | None
-    fov_note: str
 
 
 def _declared(connection, msg, where: str) -> tuple[int, int]:

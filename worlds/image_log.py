@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import os
 import shutil
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,22 @@ from PIL import Image
 from .errors import InputError
 from .files import atomic_path
 from .observation_log import ObservationLog
+
+
+@dataclass(frozen=True)
+class ImageImport:
+    """What an image import wrote: the log, how many images, the ticks dropped before the first
+    image and after the last, the oldest image a tick was paired with (s), the images' (rows,
+    columns), and the field of view (degrees) with where it came from, or ``None`` with why not."""
+
+    log: ObservationLog
+    images: int
+    dropped: int
+    dropped_at_end: int
+    max_age_s: float
+    shape: tuple[int, ...]
+    fov_deg: float | None
+    fov_note: str
 
 
 class ImageLogError(InputError):

@@ -26,11 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .bag_images import ImageImport
 from .errors import InputError
 from .files import read_text
 from .image_decode import check_size
-from .image_log import ImageLogWriter, check_outputs, latest_at_or_before
+from .image_log import ImageImport, ImageLogWriter, check_outputs, latest_at_or_before
 from .observation_log import ObservationLog
 from .trajectory_import import _interpolate_poses, odometry_from_tum, read_tum
 
