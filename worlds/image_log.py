@@ -28,7 +28,8 @@ import math
 import os
 import shutil
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -160,9 +161,28 @@ def write_image_log(
     so a failure leaves neither and an existing log and folder of that name are replaced whole.
     Returns the log as written (``image`` set)."""
     out = Path(out)
+    n = len(odometry)
+    try:
+        with atomic_path(out) as tmp, staged_images(out, images, n, camera) as names:
+            log = dataclasses.replace(
+                odometry, scene_id=np.full(n, -1, dtype=np.int64), image=names, view_rotation=None
+            )
+            log.write_csv(tmp)
+    except OSError as e:
+        raise ImageLogError(f"{images_folder(out)}: cannot write the image log ({e.strerror or e})") from None
+    return log
+
+
+@contextmanager
+def staged_images(
+    out, images: Iterable[np.ndarray | str | os.PathLike], n: int, camera: CameraDescription | None = None
+) -> Iterator[np.ndarray]:
+    """The images folder of log ``out`` written all or nothing: the ``n`` images (as
+    :func:`write_image_log` takes them) and the camera's :data:`CAMERA_FILE` are staged in a
+    hidden folder, their names relative to the log yielded for the log's ``image`` column; leaving
+    the block without an error replaces the images folder with it, an error removes it."""
     final = images_folder(out)
     stage = final.with_name(f".{final.name}.tmp-{os.getpid()}")
-    n = len(odometry)
     try:
         if stage.exists():
             shutil.rmtree(stage)
@@ -170,17 +190,12 @@ def write_image_log(
         names = _stage_images(stage, final.name, images, n)
         if camera is not None:
             atomic_write_text(stage / CAMERA_FILE, camera.toml())
-        log = dataclasses.replace(odometry, scene_id=np.full(n, -1, dtype=np.int64), image=names, view_rotation=None)
-        with atomic_path(out) as tmp:
-            log.write_csv(tmp)
-            if final.exists():
-                shutil.rmtree(final)
-            stage.rename(final)
-    except OSError as e:
-        raise ImageLogError(f"{final}: cannot write the image log ({e.strerror or e})") from None
+        yield names
+        if final.exists():
+            shutil.rmtree(final)
+        stage.rename(final)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
-    return log
 
 
 def _stage_images(stage: Path, folder: str, images: Iterable[np.ndarray | str | os.PathLike], n: int) -> np.ndarray:
