@@ -3,7 +3,7 @@ turned into template numbers and rotations by the view matcher, for both systems
 
 A camera log (:mod:`worlds.observation_log`) names each tick's image file in its ``image``
 column, relative to the log. :func:`write_images` writes a run's frames as PNGs into a folder next
-to the log (all or nothing: a staging folder moved into place); :func:`match_camera_log` reads them
+to the log (all or nothing: :func:`worlds.image_log.staged_images`); :func:`match_camera_log` reads them
 in order through :class:`ratslam.view_matcher.ViewMatcher` and returns the log with ``scene_id``
 = the matched template and ``view_rotation`` = its rotation, which :func:`harness.runner.run_stream`
 hands to ``step`` (the pose graph gets the same template numbers). The images and the templates
@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
-import shutil
 from collections import deque
 from collections.abc import Callable, Collection, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -24,7 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig, ViewConfig
@@ -37,6 +34,7 @@ from worlds.image_log import (
     check_field_of_view,
     images_folder,
     read_camera_description,
+    staged_images,
 )
 from worlds.images import ImageReadError, image_size, read_grey
 from worlds.observation_log import ObservationLogError
@@ -106,27 +104,11 @@ def write_images(images: np.ndarray, log_path, camera: CameraDescription | None 
     :func:`images_folder` of ``log_path`` (replacing a previous one whole), with the sidecar
     describing ``camera`` if given; returns each frame's path relative to the log's folder, for the
     log's ``image`` column."""
-    log_path = Path(log_path)
-    final = images_folder(log_path)
-    stage = final.with_name(f".{final.name}.tmp-{os.getpid()}")
     try:
-        if stage.exists():
-            shutil.rmtree(stage)
-        stage.mkdir(parents=True)
-        names = []
-        for k, frame in enumerate(images):
-            name = f"{k + 1:06d}.png"
-            Image.fromarray(to_uint8(frame), mode="L").save(stage / name, optimize=False)
-            names.append(f"{final.name}/{name}")
-        if camera is not None:
-            (stage / CAMERA_FILE).write_text(camera.toml(), encoding="utf-8")
-        if final.exists():
-            shutil.rmtree(final)
-        stage.rename(final)
+        with staged_images(log_path, (to_uint8(frame) for frame in images), len(images), camera) as names:
+            return names
     except OSError as e:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise OutputError(f"{final}: cannot write the camera images ({e.strerror or e})") from None
-    return np.array(names, dtype=object)
+        raise OutputError(f"{images_folder(log_path)}: cannot write the camera images ({e.strerror or e})") from None
 
 
 def simulated_camera(world: World, kind: str) -> CameraDescription:

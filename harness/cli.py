@@ -183,6 +183,11 @@ def _write_imported(log, out: Path) -> None:
 
 
 def _cmd_import_rosbag(args) -> None:
+    if args.image is not None:
+        _cmd_import_bag_images(args)
+        return
+    if args.camera_info is not None:
+        raise InputError("--camera-info: goes with --image (a camera topic)")
     from worlds.bag_import import import_bag
     from worlds.real_data import PLAZA_SCENES
 
@@ -210,7 +215,11 @@ def _cmd_import_images(args) -> None:
     )
     camera = None if args.fov is None else CameraDescription(args.fov, source="ratslam-harness import images")
     log = write_image_log(out, paired.odometry, paired.images, camera)
-    skipped = f"; {paired.skipped} ticks before the first image left out" if paired.skipped else ""
+    skipped = (
+        f"; {paired.skipped} ticks before the first image and {paired.skipped_at_end} after the last left out"
+        if paired.skipped or paired.skipped_at_end
+        else ""
+    )
     print(
         f"wrote {out} and {out.stem}_images/ ({len(log)} ticks, {len(set(paired.images))} images"
         f"{', ground truth' if log.has_ground_truth else ''}{skipped})"
@@ -234,7 +243,7 @@ def _import_images_parser(isub) -> None:
     im.add_argument(
         "--time-unit", choices=("s", "ms", "us", "ns"), default="s", help="unit of the names' time stamps (default s)"
     )
-    im.add_argument("--fov", type=_fov, help="the camera's horizontal field of view, degrees (recorded for replay)")
+    _import_fov_option(im)
     im.set_defaults(func=_cmd_import_images)
 
 
@@ -245,6 +254,12 @@ def _fov(text: str) -> float:
     return v
 
 
+def _import_fov_option(parser) -> None:
+    parser.add_argument(
+        "--fov", type=_fov, help="the camera's horizontal field of view, degrees (written to camera.toml for replay)"
+    )
+
+
 def _fov_option(parser) -> None:
     parser.add_argument(
         "--fov",
@@ -252,6 +267,86 @@ def _fov_option(parser) -> None:
         help="a camera log's horizontal field of view, degrees (360: panoramic; default: [ratslam.view] "
         "field_of_view_deg in --config, else the log's camera.toml)",
     )
+
+
+def _rosbag_image_options(rb, labels) -> None:
+    """``import rosbag --image TOPIC [--camera-info TOPIC]``: an image log in place of the place
+    labels."""
+    labels.add_argument(
+        "--image",
+        help="camera topic (sensor_msgs/Image or CompressedImage): write an image log, each tick with the "
+        "latest image, for replay's view matcher",
+    )
+    rb.add_argument(
+        "--camera-info",
+        help="sensor_msgs/CameraInfo topic for the field of view (default: the one in the image topic's namespace)",
+    )
+
+
+def _import_video_parser(isub) -> None:
+    """``import video VIDEO --odometry ODOM --out LOG.csv``: a video's frames as an image log."""
+    vd = isub.add_parser(
+        "video",
+        help="a video file and an odometry trajectory: an image log, each tick with the latest frame",
+    )
+    vd.add_argument("video", help="video file (any container and codec FFmpeg reads; needs the [video] extra)")
+    vd.add_argument(
+        "--odometry", required=True, help="odometry: TUM trajectory or observation log CSV (its scene numbers dropped)"
+    )
+    vd.add_argument("--out", required=True, help="image log to write (CSV; its images go in <stem>_images/)")
+    vd.add_argument("--gt", help="ground-truth trajectory (TUM) for a TUM odometry, interpolated at its ticks")
+    when = vd.add_mutually_exclusive_group()
+    when.add_argument("--fps", type=_positive, help="frame k at the odometry's first pose time + k / FPS")
+    when.add_argument(
+        "--timestamps", help="one time per frame (s, the odometry's clock), one a line (default: the video's own)"
+    )
+    _import_fov_option(vd)
+    vd.set_defaults(func=_cmd_import_video)
+
+
+def _print_image_import(out: Path, result) -> None:
+    log = result.log
+    print(
+        f"wrote {out} ({len(log)} ticks, {result.images} images of {result.shape[1]} x {result.shape[0]} in "
+        f"{out.stem}_images/{', ground truth' if log.has_ground_truth else ''}; oldest image paired "
+        f"{result.max_age_s:.3f} s before its tick)"
+    )
+    if result.dropped or result.dropped_at_end:
+        print(
+            f"  {result.dropped} ticks before the first image and {result.dropped_at_end} after the last were dropped"
+        )
+    if result.fov_deg is not None:
+        from worlds.image_log import CAMERA_FILE
+
+        print(f"  field of view {result.fov_deg:.2f} deg ({result.fov_note}) in {out.stem}_images/{CAMERA_FILE}")
+    else:
+        print(f"  field of view unknown ({result.fov_note}): give it to replay with --fov DEG")
+
+
+def _cmd_import_bag_images(args) -> None:
+    from worlds.bag_images import import_bag_images
+
+    out = check_writable(args.out, inputs=(args.bag,))
+    result = import_bag_images(
+        args.bag,
+        args.odom,
+        args.image,
+        out,
+        ground_truth_topic=args.gt,
+        camera_info_topic=args.camera_info,
+        twist=args.twist,
+    )
+    _print_image_import(out, result)
+
+
+def _cmd_import_video(args) -> None:
+    from worlds.video_import import import_video
+
+    out = check_writable(args.out, inputs=(args.video, args.odometry, args.gt, args.timestamps))
+    result = import_video(
+        args.video, args.odometry, out, fps=args.fps, timestamps=args.timestamps, ground_truth=args.gt, fov_deg=args.fov
+    )
+    _print_image_import(out, result)
 
 
 def _cmd_report(args) -> None:
@@ -400,8 +495,9 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def _label_options(parser, labels_help: str) -> None:
-    """Place labels given (``--labels``) or synthesised from the ground truth, and their options."""
+def _label_options(parser, labels_help: str):
+    """Place labels given (``--labels``) or synthesised from the ground truth, and their options;
+    the group of the label sources (one of them required)."""
     group = parser.add_mutually_exclusive_group(required=True)
     group.add_argument("--labels", help=labels_help)
     group.add_argument(
@@ -413,6 +509,7 @@ def _label_options(parser, labels_help: str) -> None:
         "--label-max-age", type=_positive, help="a label holds for this long, s (default: two median tick lengths)"
     )
     parser.add_argument("--seed", type=_seed, default=0, help="seed of synthesised flicker and false positives")
+    return group
 
 
 def _yes_option(parser) -> None:
@@ -530,9 +627,11 @@ def build_parser() -> argparse.ArgumentParser:
     rb.add_argument("--out", required=True, help="observation log to write (CSV)")
     rb.add_argument("--gt", help="ground-truth topic (nav_msgs/Odometry or geometry_msgs/PoseStamped)")
     rb.add_argument("--twist", action="store_true", help="odometry from the messages' twist, not pose differences")
-    _label_options(rb, "place-label topic (std_msgs integer, field data)")
+    labels = _label_options(rb, "place-label topic (std_msgs integer, field data)")
     rb.set_defaults(func=_cmd_import_rosbag)
+    _rosbag_image_options(rb, labels)
     _import_images_parser(isub)
+    _import_video_parser(isub)
 
     sw = sub.add_parser(
         "sweep",

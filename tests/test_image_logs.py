@@ -233,3 +233,17 @@ def test_writing_an_image_log_is_all_or_nothing(grey_log, tmp_path):
     assert set(again.image) == {"h_images/src.png"}
     assert sorted(p.name for p in (tmp_path / "h_images").iterdir()) == [CAMERA_FILE, "src.png"]
     assert np.array_equal(read_image(tmp_path / "h.csv", 2, again.image[0]), read_grey(src))
+
+
+def test_a_folder_is_paired_by_the_importers_one_rule(tmp_path):
+    """Ticks beyond the last image plus two image intervals are left out, not paired with a stale
+    image (the rule of worlds.image_pairing, as for bags and video)."""
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for stamp in (1.0, 2.0, 3.0):
+        Image.new("L", (8, 4)).save(folder / f"{stamp:.3f}.png")
+    write_tum(tmp_path / "o.tum", np.arange(11.0), np.arange(11.0), np.zeros(11), np.zeros(11))
+    paired = import_image_folder(folder, tmp_path / "o.tum")  # ticks at 1 ... 10 s
+    np.testing.assert_array_equal(paired.odometry.t, [1.0, 2.0, 3.0, 4.0, 5.0])  # 3 s + 2 x 1 s
+    assert [p.name for p in paired.images] == ["1.000.png", "2.000.png", "3.000.png", "3.000.png", "3.000.png"]
+    assert (paired.skipped, paired.skipped_at_end) == (0, 5)

@@ -6,6 +6,7 @@
   held over the tick that ends at that message.
 * Ground truth (optional, metrics only): a second ``nav_msgs/Odometry`` or a
   ``geometry_msgs/PoseStamped`` topic, interpolated at the tick times.
+* Camera images instead of place labels: :mod:`worlds.bag_images`.
 * Place labels: an integer topic (``std_msgs`` Int8 ... UInt64, field ``data``), placed at each
   message's record time and held as in :mod:`worlds.trajectory_import`; or scene numbers
   synthesised from the ground truth by the scene model.
@@ -93,6 +94,38 @@ def _labels(reader, bag, topic: str) -> PlaceLabels:
     return place_labels(rows, f"{bag}: topic {topic} (place labels)", BagImportError)
 
 
+def open_bag(bag):
+    """An opened ``rosbags`` reader of a ROS 1 or ROS 2 bag (close it); one line if it cannot be."""
+    try:
+        from rosbags.highlevel import AnyReader
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError:
+        raise BagImportError("importing bags needs the rosbags package: pip install 'ratslam-harness[bags]'") from None
+    bag = Path(bag)
+    if not bag.exists():
+        raise BagImportError(f"{bag}: no such bag")
+    try:
+        reader = AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+        reader.open()
+    except Exception as e:  # rosbags raises its own error classes
+        raise BagImportError(f"{bag}: not a readable bag ({type(e).__name__}: {e})") from None
+    return reader
+
+
+def read_odometry(reader, bag, odometry_topic: str, ground_truth_topic: str | None = None, twist: bool = False):
+    """Ticks ``t, dt, v, w`` between consecutive odometry messages, and the ground truth (n, 3)
+    at their times or ``None``."""
+    odo = _poses(reader, bag, odometry_topic, (ODOMETRY,), "odometry", twist=twist)
+    t, dt, v, w = odometry_from_tum(odo[:, :4])
+    if twist:
+        v, w = odo[1:, 4], odo[1:, 5]
+    gt = None
+    if ground_truth_topic is not None:
+        gt_rows = _poses(reader, bag, ground_truth_topic, (ODOMETRY, POSE), "ground truth")
+        gt = _interpolate_poses(gt_rows, t, f"{bag}: topic {ground_truth_topic}")
+    return t, dt, v, w, gt
+
+
 def import_bag(
     bag,
     odometry_topic: str,
@@ -104,30 +137,12 @@ def import_bag(
     seed: int = 0,
 ) -> ObservationLog:
     """An observation log from a bag (see the module docstring)."""
-    try:
-        from rosbags.highlevel import AnyReader
-        from rosbags.typesys import Stores, get_typestore
-    except ImportError:
-        raise BagImportError("importing bags needs the rosbags package: pip install 'ratslam-harness[bags]'") from None
     if (label_topic is None) == (synthesise is None):
         raise BagImportError("labels: give either a label topic or ask for synthesised scene numbers")
     bag = Path(bag)
-    if not bag.exists():
-        raise BagImportError(f"{bag}: no such bag")
+    reader = open_bag(bag)
     try:
-        reader = AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
-        reader.open()
-    except Exception as e:  # rosbags raises its own error classes
-        raise BagImportError(f"{bag}: not a readable bag ({type(e).__name__}: {e})") from None
-    try:
-        odo = _poses(reader, bag, odometry_topic, (ODOMETRY,), "odometry", twist=twist)
-        t, dt, v, w = odometry_from_tum(odo[:, :4])
-        if twist:
-            v, w = odo[1:, 4], odo[1:, 5]
-        gt = None
-        if ground_truth_topic is not None:
-            gt_rows = _poses(reader, bag, ground_truth_topic, (ODOMETRY, POSE), "ground truth")
-            gt = _interpolate_poses(gt_rows, t, f"{bag}: topic {ground_truth_topic}")
+        t, dt, v, w, gt = read_odometry(reader, bag, odometry_topic, ground_truth_topic, twist)
         labels = _labels(reader, bag, label_topic) if label_topic is not None else None
     finally:
         reader.close()

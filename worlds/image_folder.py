@@ -11,10 +11,11 @@ name carries a number, the last one in its stem (``1699999999.25.png``, ``frame_
 The odometry is a TUM trajectory (``t x y z qx qy qz qw``, spaces or commas; ticks between
 consecutive poses as :func:`worlds.trajectory_import.odometry_from_tum` makes them), the ground
 truth optionally another, interpolated at the ticks' times. Each tick is paired with the latest
-image taken at or before its time; ticks before the first image are left out (the log starts at
-the first tick that has one). Every image used is checked from its header before anything is
-written: a decompression bomb or a frame of another size than the first is one line naming the
-file (decoding errors are found when the log is replayed, named by file and line).
+image taken at or before its time, and ticks the images do not cover (before the first image,
+or long after the last) are left out: :mod:`worlds.image_pairing`. Every image used is checked
+from its header before anything is written (:func:`worlds.images.open_image`): a decompression
+bomb or a frame of another size than the first is one line naming the file (decoding errors are
+found when the log is replayed, named by file and line).
 """
 
 from __future__ import annotations
@@ -26,9 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .images import MAX_IMAGE_PIXELS, ImageReadError, image_size
+from .image_pairing import pair_ticks
+from .images import ImageReadError, check_size, image_size
 from .observation_log import ObservationLog
-from .trajectory_import import _interpolate_poses, odometry_from_tum, read_tum
+from .trajectory_import import tum_odometry
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -42,11 +44,12 @@ class ImageFolderError(InputError):
 @dataclass(frozen=True)
 class ImageFolderLog:
     """The odometry ticks (an observation log without scene numbers) and each tick's image file;
-    ``skipped``: ticks left out before the first image."""
+    ``skipped``: ticks left out before the first image, ``skipped_at_end``: after the last."""
 
     odometry: ObservationLog
     images: list[Path]
     skipped: int
+    skipped_at_end: int = 0
 
 
 def image_times(folder, rate: float | None = None, time_unit: str = "s", start: float = 0.0):
@@ -93,54 +96,29 @@ def import_image_folder(
     time_unit: str = "s",
 ) -> ImageFolderLog:
     """Pair the odometry's ticks with the folder's images (module doc); nothing is written."""
-    poses = read_tum(odometry)
-    t, dt, v, w = odometry_from_tum(poses)
-    files, times = image_times(folder, rate, time_unit, start=float(poses[0, 0]))
-    k = np.searchsorted(times, t, side="right") - 1  # the latest image at or before each tick
-    first = int(np.searchsorted(k, 0))  # k is non-decreasing: ticks before the first image have -1
-    if first >= len(t):
+    ticks, start = tum_odometry(odometry, ground_truth)
+    t = ticks.t
+    files, times = image_times(folder, rate, time_unit, start=start)
+    pairing = pair_ticks(times, t, ticks.dt)
+    first, end = pairing.first, pairing.end
+    if end - first < 2:
         raise ImageFolderError(
-            f"{folder}: no image at or before any odometry tick (images {times[0]:.6g}-{times[-1]:.6g} s, "
+            f"{folder}: the images cover fewer than 2 odometry ticks (images {times[0]:.6g}-{times[-1]:.6g} s, "
             f"odometry {t[0]:.6g}-{t[-1]:.6g} s; the names' unit: time_unit / --time-unit, or frame numbers: --rate)"
         )
-    t, dt, v, w, k = t[first:], dt[first:], v[first:], w[first:], k[first:]
-    used = [files[i] for i in k]
+    used = [files[i] for i in pairing.images]
     _check_headers(sorted(set(used), key=used.index))
-    log = ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=np.full(len(t), -1, dtype=np.int64))
-    if ground_truth is not None:
-        gt = _interpolate_poses(read_tum(ground_truth), t, ground_truth)
-        log = ObservationLog(
-            t=t,
-            dt=dt,
-            v_trans=v,
-            v_rot=w,
-            scene_id=log.scene_id,
-            gt_x=gt[:, 0],
-            gt_y=gt[:, 1],
-            gt_theta=gt[:, 2],
-            false_positive=np.zeros(len(t), dtype=bool),
-        )
-    return ImageFolderLog(log, used, first)
+    return ImageFolderLog(pairing.kept(ticks), used, first, pairing.dropped()[1])
 
 
 def _check_headers(files: list[Path]) -> None:
     """Every image readable as a PNG or JPEG header, within the pixel bound, all of one size."""
-    size = None
+    first: tuple[Path, tuple[int, int]] | None = None
     for p in files:
         try:
-            s = image_size(p)
+            size = image_size(p)
+            if first is not None:
+                check_size(*size, str(p), first=first[1], first_is=f"the first image ({first[0].name})")
         except ImageReadError as e:
             raise ImageFolderError(str(e)) from None
-        columns, rows = s
-        if columns * rows > MAX_IMAGE_PIXELS:
-            raise ImageFolderError(
-                f"{p}: declares {columns}x{rows} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?); "
-                "refused before decoding"
-            )
-        if size is None:
-            size, first = s, p
-        elif s != size:
-            raise ImageFolderError(
-                f"{p}: {columns}x{rows} pixels, but the first image ({first.name}) is {size[0]}x{size[1]}; "
-                "every frame must have one size"
-            )
+        first = first or (p, size)

@@ -16,17 +16,20 @@ every camera log; an importer writes it when told the field of view. A log witho
 with a field of view from ``--fov`` or the configuration file.
 
 :func:`write_image_log` is the one writer, for every source of images (the simulator's frames,
-an image folder, a bag's image topic, a video's frames).
+an image folder, a bag's image topic, a video's frames); which image each tick gets is
+:mod:`worlds.image_pairing`'s.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 import shutil
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,6 +38,7 @@ from PIL import Image
 
 from .errors import InputError
 from .files import atomic_path, atomic_write_text
+from .images import image_size
 from .observation_log import ObservationLog
 
 CAMERA_FILE = "camera.toml"
@@ -59,8 +63,36 @@ class CameraDescription:
             "# The camera that took the images in this folder (read by ratslam-harness replay).",
             f"field_of_view_deg = {float(self.field_of_view_deg)!r}",
         ]
-        lines += [f'{k} = "{v}"' for k, v in (("kind", self.kind), ("source", self.source)) if v]
+        lines += [f"{k} = {json.dumps(v)}" for k, v in (("kind", self.kind), ("source", self.source)) if v]
         return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class ImageImport:
+    """What an import from a bag or a video wrote: the log, how many images, the ticks dropped
+    before the first image and after the last, the oldest image a tick was paired with (s), the
+    images' (rows, columns), and the field of view (degrees) with where it came from, or ``None``
+    with why not."""
+
+    log: ObservationLog
+    images: int
+    dropped: int
+    dropped_at_end: int
+    max_age_s: float
+    shape: tuple[int, ...]
+    fov_deg: float | None
+    fov_note: str
+
+    @classmethod
+    def written(
+        cls, out, log: ObservationLog, dropped: tuple[int, int], ages: np.ndarray, fov_deg: float | None, fov_note: str
+    ) -> ImageImport:
+        """The result of writing ``log`` to ``out`` (images counted, their size from the first's
+        header); ``ages``: each tick's time less its image's."""
+        assert log.image is not None
+        columns, rows = image_size(Path(out).parent / log.image[0])
+        images = len(set(log.image))
+        return cls(log, images, dropped[0], dropped[1], float(np.max(ages)), (rows, columns), fov_deg, fov_note)
 
 
 def images_folder(log_path) -> Path:
@@ -74,6 +106,16 @@ def check_field_of_view(value: float, where: str) -> float:
     if not (isinstance(value, (int, float)) and math.isfinite(value) and 0.0 < value <= 360.0):
         raise ImageLogError(f"{where}: field of view must be in (0, 360] degrees, got {value!r}")
     return float(value)
+
+
+def check_outputs(out, inputs: tuple) -> None:
+    """Refuse an images folder that would replace one of the inputs (a bag directory, a video)."""
+    folder = images_folder(out)
+    for f in inputs:
+        if f is not None and os.path.realpath(folder) == os.path.realpath(f):
+            raise ImageLogError(
+                f"{folder}: is the input {f}; the images folder would replace it (choose another --out)"
+            )
 
 
 def read_camera_description(log_path, first_image: str) -> CameraDescription | None:
@@ -113,14 +155,34 @@ def write_image_log(
     :data:`CAMERA_FILE` if ``camera`` is given.
 
     ``images`` yields, per tick in order, either a grey image (2-D uint8 array), written as a PNG
-    ``000001.png`` ..., or the path of an existing image file, copied into the folder under its
-    own name (a file named by several ticks is copied once). Both are written under temporary names
-    and moved into place at the end, so a failure leaves neither and an existing log and folder of
-    that name are replaced whole. Returns the log as written (``image`` set)."""
+    ``000001.png`` ... (the same array object as the previous tick's is written once), or the path
+    of an existing image file, copied into the folder under its own name (a file named by several
+    ticks is copied once). Both are written under temporary names and moved into place at the end,
+    so a failure leaves neither and an existing log and folder of that name are replaced whole.
+    Returns the log as written (``image`` set)."""
     out = Path(out)
+    n = len(odometry)
+    try:
+        with atomic_path(out) as tmp, staged_images(out, images, n, camera) as names:
+            log = dataclasses.replace(
+                odometry, scene_id=np.full(n, -1, dtype=np.int64), image=names, view_rotation=None
+            )
+            log.write_csv(tmp)
+    except OSError as e:
+        raise ImageLogError(f"{images_folder(out)}: cannot write the image log ({e.strerror or e})") from None
+    return log
+
+
+@contextmanager
+def staged_images(
+    out, images: Iterable[np.ndarray | str | os.PathLike], n: int, camera: CameraDescription | None = None
+) -> Iterator[np.ndarray]:
+    """The images folder of log ``out`` written all or nothing: the ``n`` images (as
+    :func:`write_image_log` takes them) and the camera's :data:`CAMERA_FILE` are staged in a
+    hidden folder, their names relative to the log yielded for the log's ``image`` column; leaving
+    the block without an error replaces the images folder with it, an error removes it."""
     final = images_folder(out)
     stage = final.with_name(f".{final.name}.tmp-{os.getpid()}")
-    n = len(odometry)
     try:
         if stage.exists():
             shutil.rmtree(stage)
@@ -128,23 +190,19 @@ def write_image_log(
         names = _stage_images(stage, final.name, images, n)
         if camera is not None:
             atomic_write_text(stage / CAMERA_FILE, camera.toml())
-        log = dataclasses.replace(odometry, scene_id=np.full(n, -1, dtype=np.int64), image=names, view_rotation=None)
-        with atomic_path(out) as tmp:
-            log.write_csv(tmp)
-            if final.exists():
-                shutil.rmtree(final)
-            stage.rename(final)
-    except OSError as e:
-        raise ImageLogError(f"{final}: cannot write the image log ({e.strerror or e})") from None
+        yield names
+        if final.exists():
+            shutil.rmtree(final)
+        stage.rename(final)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
-    return log
 
 
 def _stage_images(stage: Path, folder: str, images: Iterable[np.ndarray | str | os.PathLike], n: int) -> np.ndarray:
     names: list[str] = []
     copied: dict[Path, str] = {}
     taken: set[str] = set()
+    previous: tuple[np.ndarray, str] | None = None
     for k, item in enumerate(images):
         if k >= n:
             raise ImageLogError(f"images: more images than the {n} odometry ticks")
@@ -164,6 +222,9 @@ def _stage_images(stage: Path, folder: str, images: Iterable[np.ndarray | str | 
                 taken.add(name)
             names.append(f"{folder}/{copied[src]}")
             continue
+        if previous is not None and item is previous[0]:
+            names.append(previous[1])
+            continue
         a = np.asarray(item)
         if a.ndim != 2 or a.dtype != np.uint8:
             raise ImageLogError(f"images: tick {k + 1}: expected a grey image (2-D uint8), got {a.dtype} {a.shape}")
@@ -171,6 +232,7 @@ def _stage_images(stage: Path, folder: str, images: Iterable[np.ndarray | str | 
         Image.fromarray(a, mode="L").save(stage / name, optimize=False)
         taken.add(name)
         names.append(f"{folder}/{name}")
+        previous = (item, names[-1])
     if len(names) != n:
         raise ImageLogError(f"images: {len(names)} images for {n} odometry ticks (one per tick is needed)")
     return np.array(names, dtype=object)

@@ -1,10 +1,13 @@
-"""Reading a camera's image files safely: grey levels from a PNG or JPEG (colour or grey, any
-size), with every problem one line naming the file.
+"""Reading a camera's images safely: grey levels from a PNG or JPEG (a file or the bytes of a
+recorded message; colour or grey, any size), with every problem one line naming where it came from.
 
-The header is read first (Pillow opens lazily): an image declaring more than
-:data:`MAX_IMAGE_PIXELS` pixels (a decompression bomb: a small file that would decode to
-gigapixels) or of another size than the stream's first image is refused before anything is
-decoded. A missing, unreadable, truncated or corrupt file is refused when it is decoded (Pillow's
+:func:`open_image` is the one header check, for every source of images (an image log's files at
+replay, an image folder's files at import, a bag's compressed images): the header is read first
+(Pillow opens lazily) and an image declaring no pixels or more than :data:`MAX_IMAGE_PIXELS` (a
+decompression bomb: a small file that would decode to gigapixels) is refused before anything is
+decoded; :func:`check_size` is the same bound for sizes declared elsewhere (a raw message's
+fields, a video stream's), and refuses a frame of another size than the stream's first. A missing,
+unreadable, truncated or corrupt image is refused when it is decoded (Pillow's
 ``LOAD_TRUNCATED_IMAGES`` stays off, so a short file is an error, not grey padding).
 
 A JPEG much larger than the view matcher's template may be decoded at a reduced scale
@@ -14,6 +17,8 @@ keeps at least twice the template's rows and columns.
 
 from __future__ import annotations
 
+import io
+import os
 import warnings
 import zlib
 from pathlib import Path
@@ -27,6 +32,9 @@ MAX_IMAGE_PIXELS = 40_000_000
 """An image declaring more pixels than this (e.g. 8000 x 5000) is refused from its header: a
 camera's frames are far smaller, and a decoded frame this size is 40 MB of grey levels."""
 
+FORMATS = ("PNG", "JPEG")
+"""The image formats read."""
+
 ImageFile.LOAD_TRUNCATED_IMAGES = False  # a truncated file is an error, never padded
 
 _DECODE_ERRORS = (OSError, ValueError, SyntaxError, EOFError, zlib.error, Image.DecompressionBombError)
@@ -36,68 +44,80 @@ class ImageReadError(InputError):
     """An image that cannot be used (one line: where, file, problem)."""
 
 
-def image_size(path, where: str = "") -> tuple[int, int]:
-    """(columns, rows) from the image's header, without decoding it."""
+def check_size(width: int, height: int, where: str, first: tuple[int, int] | None = None, first_is: str = "") -> None:
+    """Refuse a declared image size that is empty or beyond :data:`MAX_IMAGE_PIXELS`, or, with
+    ``first`` (columns, rows), of another size than the stream's first image (``first_is`` names
+    it; default "the first image")."""
+    if width <= 0 or height <= 0:
+        raise ImageReadError(f"{where}: empty image ({width}x{height} pixels)")
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ImageReadError(
+            f"{where}: declares {width}x{height} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?); "
+            "refused before decoding"
+        )
+    if first is not None and (width, height) != tuple(first):
+        raise ImageReadError(
+            f"{where}: {width}x{height} pixels, but {first_is or 'the first image'} is {first[0]}x{first[1]}; "
+            "every frame must have one size"
+        )
+
+
+def open_image(source: str | os.PathLike | bytes, where: str = "") -> Image.Image:
+    """A PNG or JPEG file (a path) or stream (bytes) opened lazily, its header read and its size
+    checked (:func:`check_size`), nothing decoded; close it. ``where`` heads the error message
+    (default: the path)."""
+    where = where or str(source)
     try:
-        with _open(Path(path)) as im:
-            return im.size
+        with warnings.catch_warnings():  # the bound here says it in one line; beyond twice its own
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # limit Pillow refuses at once
+            im = Image.open(io.BytesIO(source) if isinstance(source, bytes) else Path(source), formats=FORMATS)
     except _DECODE_ERRORS as e:
-        raise ImageReadError(f"{where or path}: {_problem(e)}") from None
+        raise ImageReadError(f"{where}: {_problem(e)}") from None
+    try:
+        check_size(*im.size, where)
+    except ImageReadError:
+        im.close()
+        raise
+    return im
+
+
+def image_size(source, where: str = "") -> tuple[int, int]:
+    """(columns, rows) from the image's header (checked by :func:`open_image`), without decoding it."""
+    with open_image(source, where) as im:
+        return im.size
 
 
 def read_grey(
-    path,
+    source,
     where: str = "",
     expected_size: tuple[int, int] | None = None,
     draft_to: tuple[int, int] | None = None,
 ) -> np.ndarray:
-    """An image file as grey levels (rows, columns) uint8. ``where`` heads the error message
-    (default: the path). ``expected_size`` (columns, rows): a frame of another size is refused
-    from its header. ``draft_to`` (columns, rows): a JPEG at least twice this size either way may
-    be decoded at a reduced scale that keeps it at least twice this size."""
-    path = Path(path)
-    where = where or str(path)
-    try:
-        with _open(path) as im:
-            w, h = im.size
-            if w * h > MAX_IMAGE_PIXELS:
-                raise ImageReadError(
-                    f"{where}: declares {w}x{h} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?); "
-                    "refused before decoding"
-                )
-            if expected_size is not None and (w, h) != tuple(expected_size):
-                ew, eh = expected_size
-                raise ImageReadError(
-                    f"{where}: {w}x{h} pixels, but the first image is {ew}x{eh}; every frame must have one size"
-                )
+    """An image file (a path) or stream (bytes) as grey levels (rows, columns) uint8. ``where``
+    heads the error message (default: the path). ``expected_size`` (columns, rows): a frame of
+    another size is refused from its header. ``draft_to`` (columns, rows): a JPEG at least twice
+    this size either way may be decoded at a reduced scale that keeps it at least twice this size."""
+    where = where or str(source)
+    with open_image(source, where) as im:
+        if expected_size is not None:
+            check_size(*im.size, where, first=expected_size)
+        try:
             if draft_to is not None and im.format == "JPEG":
                 im.draft("L", (2 * draft_to[0], 2 * draft_to[1]))
             im.load()
             grey = im if im.mode == "L" else _to_grey(im)
             return np.asarray(grey)
-    except ImageReadError:
-        raise
-    except _DECODE_ERRORS as e:
-        raise ImageReadError(f"{where}: {_problem(e)}") from None
-
-
-def _open(path: Path) -> Image.Image:
-    """Pillow's lazy open (the header only), without its own bomb warning: the bound here says it
-    in one line, and beyond twice its own limit Pillow refuses at once."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-        return Image.open(path)
+        except _DECODE_ERRORS as e:
+            raise ImageReadError(f"{where}: {_problem(e)}") from None
 
 
 def _to_grey(im: Image.Image) -> Image.Image:
-    """Grey levels of any mode: colour by ITU-R 601 luma (Pillow's ``convert("L")``), 16-bit and
-    float images scaled from their own range, transparency ignored."""
-    if im.mode in ("I;16", "I;16B", "I;16L", "I", "F"):
-        a = np.asarray(im, dtype=np.float64)
-        top = 65535.0 if im.mode.startswith("I;16") or (im.mode == "I" and a.max(initial=0) > 255) else 255.0
-        if im.mode == "F":
-            top = 1.0 if a.max(initial=0) <= 1.0 else 255.0
-        return Image.fromarray(np.clip(np.rint(a * (255.0 / top)), 0, 255).astype(np.uint8), mode="L")
+    """Grey levels of any mode: colour by ITU-R 601 luma (Pillow's ``convert("L")``), 16-bit grey
+    by its high byte (the full 16-bit range onto 8 bits, as a raw ``mono16`` message), transparency
+    ignored."""
+    if im.mode in ("I;16", "I;16B", "I;16L", "I"):
+        grey16 = np.clip(np.asarray(im, dtype=np.int64), 0, 65535)
+        return Image.fromarray((grey16 >> 8).astype(np.uint8), mode="L")
     if im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info):
         im = im.convert("RGBA").convert("RGB")
     return im.convert("L")

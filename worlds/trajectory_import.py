@@ -189,7 +189,13 @@ def assemble_log(
     if labels is None:
         raise error("neither place labels nor scene numbers to synthesise")
     age = 2.0 * float(np.median(dt)) if label_max_age is None else float(label_max_age)
-    scene = labels_at(labels, t, age, slack=0.5 * float(np.median(dt)))
+    return unlabelled_log(t, dt, v, w, gt, labels_at(labels, t, age, slack=0.5 * float(np.median(dt))))
+
+
+def unlabelled_log(t, dt, v, w, gt: np.ndarray | None = None, scene: np.ndarray | None = None) -> ObservationLog:
+    """Imported ticks with the ground truth ``gt`` (n, 3) where there is one, and ``scene``
+    numbers, or none (-1: an image log's odometry)."""
+    scene = np.full(len(t), -1, dtype=np.int64) if scene is None else scene
     if gt is None:
         return ObservationLog(t=t, dt=dt, v_trans=v, v_rot=w, scene_id=scene)
     return ObservationLog(
@@ -203,6 +209,15 @@ def assemble_log(
         gt_theta=gt[:, 2],
         false_positive=np.zeros(len(t), dtype=bool),
     )
+
+
+def tum_odometry(odometry, ground_truth=None) -> tuple[ObservationLog, float]:
+    """The ticks of a TUM odometry trajectory without scene numbers, the ground truth (TUM)
+    interpolated at them if given, and the time of the first pose (the start of the first tick)."""
+    poses = read_tum(odometry)
+    t, dt, v, w = odometry_from_tum(poses)
+    gt = None if ground_truth is None else _interpolate_poses(read_tum(ground_truth), t, ground_truth)
+    return unlabelled_log(t, dt, v, w, gt), float(poses[0, 0])
 
 
 def import_tum(
