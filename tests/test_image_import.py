@@ -62,9 +62,12 @@ def test_ros2_raw_and_ros1_compressed_bags_give_the_rendered_frames_and_field_of
 def test_a_bag_replays_end_to_end_as_the_rendered_camera_log(run, tmp_path, capsys):
     """Imported from a bag, the images give the matcher the same templates as the rendered frames,
     and both systems' trajectories (ATE against the bag's ground truth, a report) are those of the
-    same run written by ``simulate --camera``."""
+    same run written by ``simulate --camera``; the bag's recording shows each tick's image."""
     from harness.camera_stream import write_images
     from harness.cli import main
+    from harness.recorder import recorder_factory
+
+    from .test_camera_recording import _images
 
     log, frames, *_ = run
     bag = write_run_bag(tmp_path / "run", run, 2, compressed=False)
@@ -83,7 +86,8 @@ def test_a_bag_replays_end_to_end_as_the_rendered_camera_log(run, tmp_path, caps
     dataclasses.replace(log, image=images).write_csv(reference)
     metrics = {}
     for name, path in (("bag", out), ("simulated", reference)):  # each with its camera.toml, no configuration
-        run_dir = replay(path, tmp_path / name, show_progress=False)
+        recorder = recorder_factory if name == "bag" else None
+        run_dir = replay(path, tmp_path / name, show_progress=False, recorder_factory=recorder)
         assert (run_dir / "report.md").is_file() and (run_dir / "trajectories" / "ratslam.tum").is_file()
         metrics[name] = json.loads((run_dir / "metrics.json").read_text())["variants"]["replay"]
     got, want = metrics["bag"], metrics["simulated"]
@@ -93,6 +97,10 @@ def test_a_bag_replays_end_to_end_as_the_rendered_camera_log(run, tmp_path, caps
     assert set(got["ate"]) >= {"odometry", "experience_map", "gtsam"}
     for key, value in want["ate"].items():  # the bag's odometry: pose differences, equal to 1e-12
         assert got["ate"][key] == pytest.approx(value, rel=1e-6, abs=1e-9), key
+    recorded = _images(tmp_path / "bag" / "recording.rrd", "/camera/image")
+    assert sorted(recorded) == list(range(len(log)))
+    for k in (0, len(log) - 1):
+        assert np.array_equal(recorded[k], frames[k].ravel())
 
 
 def _matcher():
