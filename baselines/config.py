@@ -6,8 +6,8 @@ size, heading sectors) are the simulator's world defaults (7 Hz ticks, 0.3 m/s,
 1 m x 1 m x 90 deg scene cells). Why each default is what it is (the measured trade-offs) is in
 ``docs/configuration.md``, one section per sub-config.
 
-Fields are checked by the validator shared with RatSLAM, :mod:`ratslam.config_fields`: the one
-import of ``baselines/`` from ``ratslam/`` (the pose graph never uses RatSLAM itself).
+Fields are checked by the validator RatSLAM's configuration uses too, :mod:`slamkit.config_fields`
+(``baselines/`` imports nothing from ``ratslam/``).
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ import typing
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
-from ratslam.config_fields import ConfigError, check_fields, param, replace
+from slamkit.config_fields import ConfigError, Renamed, check_fields, param, replace
+from slamkit.yaw_bias import YawBiasSearchConfig
 
 Backend = Literal["gaussian", "robust", "gnc"]
 Estimator = Literal["cauchy", "huber", "dcs", "geman_mcclure"]
@@ -164,11 +165,16 @@ class OptimisationConfig:
 
 
 @dataclass(frozen=True)
-class YawBiasConfig:
-    """A constant yaw-rate (gyro) bias: searched from revisits by default, or a graph variable
-    (docs/configuration.md#pose-graph-yaw-rate-bias)."""
+class YawBiasConfig(YawBiasSearchConfig):
+    """A constant yaw-rate (gyro) bias: searched from revisits by default (the search's fields,
+    in deg/s, and the search itself are RatSLAM's too, :mod:`slamkit.yaw_bias`; revisits are
+    scored with the closures' travel and sigmas), or a graph variable (``estimate``, then
+    ``search`` is ignored) (docs/configuration.md#pose-graph-yaw-rate-bias)."""
 
-    SECTION: ClassVar[str] = "yaw_bias"
+    RENAMED: ClassVar[dict[str, Renamed]] = {
+        "search_max_rad_s": Renamed("search_max_deg_s", "deg/s", math.degrees),
+        "search_step_rad_s": Renamed("search_step_deg_s", "deg/s", math.degrees),
+    }
 
     estimate: bool = False
     """Add one constant yaw-rate bias variable to the graph (not with the "gnc" back-end). See the docs."""
@@ -176,21 +182,6 @@ class YawBiasConfig:
     """Zero-mean prior on the bias (0.2 rad/s ~ 11 deg/s)."""
     isam2_relinearize_threshold_rad_s: float = param(1e-4, ge=0)
     """iSAM2 relinearisation threshold of the bias; far below the poses'. See the docs section."""
-    search: bool = True
-    """Search the bias from revisited scene numbers (:mod:`ratslam.yaw_bias`); ignored with ``estimate``."""
-    search_max_rad_s: float = param(math.radians(3.0), gt=0)
-    """Largest |bias| searched (3 deg/s). See the docs section."""
-    search_step_rad_s: float = param(math.radians(0.05), gt=0)
-    """Grid step of the search (0.05 deg/s; the minimum is refined by a parabola)."""
-    search_max_span_s: float = param(300.0, gt=0)
-    """Longest time between two sightings of a scene that still scores a revisit."""
-    search_kernel: float = param(3.0, gt=0)
-    """Geman-McClure width (Mahalanobis units) of a revisit's cost; r < this is an inlier."""
-    search_min_gain: float = param(4.0, gt=0)
-    """A bias is adopted only if it lowers the summed revisit cost by at least this."""
-
-    def __post_init__(self) -> None:
-        check_fields(self)
 
 
 @dataclass(frozen=True)

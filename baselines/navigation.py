@@ -3,84 +3,18 @@
 The graph's places are its keyframes; two keyframes are joined by their odometry factor (weighted
 by the time driven between them) and by every accepted loop closure (the same place seen twice:
 no time to drive). The quickest route is a shortest path over these joins, driven either way, from
-the latest keyframe to the keyframe nearest the goal within ``goal_radius`` m. This mirrors
-``ratslam.navigation`` (same result type, same rules) without importing it: baselines never import
-ratslam. Planning reads only the graph, never ground truth, and always terminates.
+the latest keyframe to the keyframe nearest the goal within ``goal_radius`` m, by the planner
+RatSLAM's navigators use (:func:`slamkit.routes.quickest_route`: same result type, same rules).
+Planning reads only the graph, never ground truth, and always terminates.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
+
+from slamkit.routes import Route, quickest_route
 
 from .pose_graph import PoseGraphSLAM
-
-OK = "ok"
-NO_KEYFRAME_NEAR_GOAL = "no experience near goal"  # same wording as ratslam: one status vocabulary
-UNREACHABLE = "unreachable"
-NOT_LOCALISED = "no current experience"
-
-_MIN_WEIGHT = 1e-6  # s; a loop closure (zero time) still counts as an edge
-
-
-@dataclass(frozen=True)
-class Route:
-    """A planned route (mirrors ``ratslam.navigation.Route``): ``status`` is :data:`OK` or says why
-    there is none; ``nodes`` the keyframes from the latest to the goal keyframe, ``waypoints`` their
-    positions when planned, ``time_s`` the route's driving time (inf without a route)."""
-
-    status: str
-    nodes: np.ndarray
-    waypoints: np.ndarray
-    time_s: float
-    goal_node: int = -1
-
-    @property
-    def found(self) -> bool:
-        """Whether a route exists."""
-        return self.status == OK
-
-
-def _no_route(status: str, goal_node: int = -1) -> Route:
-    return Route(status, np.zeros(0, dtype=np.int64), np.zeros((0, 2)), math.inf, goal_node)
-
-
-def quickest_route(
-    node_xy: np.ndarray, edges: np.ndarray, weights: np.ndarray, start: int, goal_xy, goal_radius: float
-) -> Route:
-    """Quickest route over an undirected weighted graph (see ``ratslam.navigation.quickest_route``)."""
-    node_xy = np.asarray(node_xy, dtype=float).reshape(-1, 2)
-    n = len(node_xy)
-    if start < 0 or start >= n:
-        return _no_route(NOT_LOCALISED)
-    gap = np.hypot(node_xy[:, 0] - goal_xy[0], node_xy[:, 1] - goal_xy[1])
-    goal = int(np.argmin(gap))
-    if gap[goal] > goal_radius:
-        return _no_route(NO_KEYFRAME_NEAR_GOAL)
-    if goal == start:
-        return Route(OK, np.array([start]), node_xy[[start]].copy(), 0.0, goal)
-    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    weights = np.asarray(weights, dtype=float)
-    keep = edges[:, 0] != edges[:, 1]
-    edges, weights = edges[keep], np.maximum(weights[keep], _MIN_WEIGHT)
-    lo, hi = edges.min(axis=1), edges.max(axis=1)
-    order = np.lexsort((weights, hi, lo))  # per node pair, the quickest join first
-    lo, hi, weights = lo[order], hi[order], weights[order]
-    first = np.ones(len(lo), dtype=bool)
-    first[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
-    graph = coo_matrix((weights[first], (lo[first], hi[first])), shape=(n, n)).tocsr()
-    dist, pred = dijkstra(graph, directed=False, indices=start, return_predecessors=True)
-    if not math.isfinite(dist[goal]):
-        return _no_route(UNREACHABLE, goal)
-    path = [goal]
-    while path[-1] != start:
-        path.append(int(pred[path[-1]]))
-    nodes = np.array(path[::-1], dtype=np.int64)
-    return Route(OK, nodes, node_xy[nodes].copy(), float(dist[goal]), goal)
 
 
 def graph_edges(slam: PoseGraphSLAM) -> tuple[np.ndarray, np.ndarray]:
@@ -104,13 +38,6 @@ def plan_route(slam: PoseGraphSLAM, goal_xy, goal_radius: float = 1.0, node_xy: 
         node_xy = slam.keyframe_poses[:, :2]
     edges, seconds = graph_edges(slam)
     return quickest_route(node_xy, edges, seconds, slam.num_keyframes - 1, goal_xy, goal_radius)
-
-
-def range_bearing(pose, xy) -> tuple[float, float]:
-    """Range (m) and bearing (rad, relative to the heading, in [-π, π)) of ``xy`` from ``pose``."""
-    dx, dy = xy[0] - pose[0], xy[1] - pose[1]
-    bearing = (math.atan2(dy, dx) - pose[2] + math.pi) % (2.0 * math.pi) - math.pi
-    return math.hypot(dx, dy), bearing
 
 
 class PoseGraphNavigator:

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ratslam.arcs import SMALL_TURN, cumulative_poses, integrate, tick_increments
+from slamkit.arcs import SMALL_TURN, cumulative_poses, integrate, tick_increments
 
 __all__ = ["cumulative_poses", "integrate", "relative_covariance", "tick_increments"]
 

@@ -9,7 +9,7 @@ one contradicts the estimate; keyframes with only odometry wait for the next
 update, up to ``optimisation.odometry_batch_keyframes``); optimise online with iSAM2 (robust,
 Gaussian or GNC-verified closures).  A constant yaw-rate bias is either a graph variable
 (``yaw_bias.estimate``) or, by default, searched from revisited scene numbers
-(:mod:`ratslam.yaw_bias`): when one is adopted the graph is rebuilt from the stored ticks
+(:mod:`slamkit.yaw_bias`): when one is adopted the graph is rebuilt from the stored ticks
 with the corrected odometry.  The SLAM never sees ground truth.
 """
 
@@ -22,8 +22,8 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, X
 
-from ratslam.arcs import check_tick
-from ratslam.yaw_bias import YawBiasSearch
+from slamkit.arcs import check_tick
+from slamkit.yaw_bias import YawBiasSearch
 
 from .closures import SceneIndex
 from .config import PoseGraphConfig
@@ -45,11 +45,8 @@ BIAS_KEY = B(0)
 def bias_search(cfg: PoseGraphConfig) -> YawBiasSearch:
     """The yaw-rate bias search a pose graph of configuration ``cfg`` runs: its ``yaw_bias``
     fields, revisits scored with its closures' own travel and sigmas."""
-    yb, lc = cfg.yaw_bias, cfg.closures
-    return YawBiasSearch(
-        yb.search_max_rad_s, yb.search_step_rad_s, yb.search_max_span_s, lc.min_travel_m,
-        lc.sigma_xy_m, lc.sigma_theta_rad, yb.search_kernel, yb.search_min_gain,
-    )  # fmt: skip
+    lc = cfg.closures
+    return cfg.yaw_bias.bias_search(lc.min_travel_m, lc.sigma_xy_m, lc.sigma_theta_rad)
 
 
 class PoseGraphSLAM:

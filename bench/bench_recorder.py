@@ -16,17 +16,7 @@ the full 2.5-hour figure.
 
 Timings are noisy on a shared 2-core machine; the overhead ratio is the figure to compare.
 
-Measured (2-core machine shared with other jobs; defaults every_map=70, every_closures=700,
-every_activity=35, flush_every=70), ``bench_recorder.py --sweep --real 9000``:
-  synthetic 63,000 ticks:  every_map=35: 171.1 MB, 4.7 s (74 us/tick)
-                           every_map=70:  92.1 MB, 3.1 s (49 us/tick)   <- default
-                           every_map=140: 52.5 MB, 2.3 s (37 us/tick)
-                           every_map=350: 28.8 MB, 1.9 s (31 us/tick)
-  real office_floor, 9,000 s (63,000 ticks; 708 experiences, 1,125 links, 7,606 keyframes):
-      run 141.9 s of which the recorder 11.2 s = 7.9 % (8.6 % on top of the two systems), 69.0 MB.
-  The recorder's time in the real run is mostly the baseline's own reads (``keyframe_poses``
-  computes the iSAM2 estimate, ``closure_accepted`` re-scores every closure), hence
-  ``every_closures``.
+Measured: docs/speed.md ("The Rerun recording").
 """
 
 from __future__ import annotations

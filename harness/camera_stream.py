@@ -12,9 +12,12 @@ hands to ``step`` (the pose graph gets the same template numbers).
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import shutil
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Collection, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +27,14 @@ from ratslam import ViewConfig
 from ratslam.view_matcher import ViewMatcher
 from worlds import ObservationLog, World
 from worlds.camera import Camera, to_uint8
+from worlds.image_log import (
+    CAMERA_FILE,
+    CameraDescription,
+    check_field_of_view,
+    images_folder,
+    read_camera_description,
+)
+from worlds.images import ImageReadError, image_size, read_grey
 from worlds.observation_log import ObservationLogError
 
 from .run_dir import OutputError
@@ -57,16 +68,11 @@ def camera_observations(world: World, log: ObservationLog, kind: str, seed: int,
     )
 
 
-def images_folder(log_path) -> Path:
-    """Where a camera log's images go: ``<log stem>_images`` next to the log."""
-    log_path = Path(log_path)
-    return log_path.with_name(f"{log_path.stem}_images")
-
-
-def write_images(images: np.ndarray, log_path) -> np.ndarray:
+def write_images(images: np.ndarray, log_path, camera: CameraDescription | None = None) -> np.ndarray:
     """Write frames (N, rows, columns) in [0, 1] as 8-bit PNGs ``000001.png`` ... into
-    :func:`images_folder` of ``log_path`` (replacing a previous one whole); returns each frame's
-    path relative to the log's folder, for the log's ``image`` column."""
+    :func:`images_folder` of ``log_path`` (replacing a previous one whole), with the sidecar
+    describing ``camera`` if given; returns each frame's path relative to the log's folder, for the
+    log's ``image`` column."""
     log_path = Path(log_path)
     final = images_folder(log_path)
     stage = final.with_name(f".{final.name}.tmp-{os.getpid()}")
@@ -79,6 +85,8 @@ def write_images(images: np.ndarray, log_path) -> np.ndarray:
             name = f"{k + 1:06d}.png"
             Image.fromarray(to_uint8(frame), mode="L").save(stage / name, optimize=False)
             names.append(f"{final.name}/{name}")
+        if camera is not None:
+            (stage / CAMERA_FILE).write_text(camera.toml(), encoding="utf-8")
         if final.exists():
             shutil.rmtree(final)
         stage.rename(final)
@@ -88,36 +96,218 @@ def write_images(images: np.ndarray, log_path) -> np.ndarray:
     return np.array(names, dtype=object)
 
 
-def read_image(log_path, line: int, name: str) -> np.ndarray:
-    """One tick's image (rows, columns) as 8-bit grey levels; a one-line error naming the log, the
-    line and the file if it cannot be read."""
-    path = Path(log_path).parent / name
+def simulated_camera(world: World, kind: str) -> CameraDescription:
+    """The description of the simulator's camera of ``kind`` in ``world`` (a camera log's sidecar)."""
+    fov = 360.0 if kind == "panoramic" else float(world.camera.fov_deg)
+    return CameraDescription(fov, kind, "ratslam-harness simulate")
+
+
+def read_image(log_path, line: int, name: str, expected_size=None, draft_to=None) -> np.ndarray:
+    """One tick's image (rows, columns) as 8-bit grey levels (:func:`worlds.images.read_grey`:
+    any PNG or JPEG, colour or grey); a one-line error naming the log, the line and the file if it
+    cannot be read, is a decompression bomb or is not ``expected_size`` (columns, rows)."""
     try:
-        with Image.open(path) as im:
-            return np.asarray(im.convert("L"))
-    except (OSError, ValueError) as e:
-        problem = "no such file" if isinstance(e, FileNotFoundError) else f"not a readable image ({e})"
-        raise ObservationLogError(f"{log_path}: line {line}, column image: {name}: {problem}") from None
+        return read_grey(
+            Path(log_path).parent / name,
+            f"{log_path}: line {line}, column image: {name}",
+            expected_size=expected_size,
+            draft_to=draft_to,
+        )
+    except ImageReadError as e:
+        raise ObservationLogError(str(e)) from None
+
+
+READ_AHEAD = 16
+"""Images decoded ahead of the matcher, on :data:`READ_THREADS` threads (decoding releases the GIL)."""
+READ_THREADS = 2
+
+
+def _images(log: ObservationLog, log_path, size: tuple[int, int], draft_to) -> Iterator[np.ndarray]:
+    """The log's images in order, decoded ahead on threads; the first bad one (in log order) raises."""
+    assert log.image is not None
+    names = list(log.image)
+    with ThreadPoolExecutor(READ_THREADS) as pool:
+        ahead: deque[Future] = deque()
+        for k in range(len(names)):
+            while len(ahead) < READ_AHEAD and k + len(ahead) < len(names):
+                j = k + len(ahead)
+                ahead.append(pool.submit(read_image, log_path, j + 2, names[j], size, draft_to))
+            future = ahead.popleft()
+            try:
+                yield future.result()
+            except BaseException:
+                for f in ahead:
+                    f.cancel()
+                raise
+
+
+def _draft_to(config: ViewConfig) -> tuple[int, int] | None:
+    """The template size a JPEG may be decoded down towards (nothing cropped: crops count pixels of
+    the full image)."""
+    crops = (config.crop_top, config.crop_bottom, config.crop_left, config.crop_right)
+    return None if any(crops) else (config.template_width, config.template_height)
 
 
 def match_camera_log(
     log: ObservationLog, log_path, config: ViewConfig, progress: Callable[[int, int], None] | None = None
 ) -> ObservationLog:
     """The camera log with each tick's template number as its scene number and the view's rotation
-    relative to the template, matched in order (a log without images is returned as it is)."""
+    relative to the template, matched in order (a log without images is returned as it is). Every
+    image must have the first one's size; a JPEG several times the template's size is decoded at
+    a reduced scale when nothing is cropped (:func:`worlds.images.read_grey`)."""
     if log.image is None:
         return log
     vm = ViewMatcher(config)
     n = len(log)
+    size = image_size(Path(log_path).parent / log.image[0], f"{log_path}: line 2, column image: {log.image[0]}")
+    draft_to = _draft_to(config)
     scene, rotation = np.empty(n, dtype=np.int64), np.empty(n)
-    for k, name in enumerate(log.image):
+    for k, image in enumerate(_images(log, log_path, size, draft_to)):
         try:
-            m = vm.match(read_image(log_path, k + 2, name))
+            m = vm.match(image)
         except ValueError as e:
-            if isinstance(e, ObservationLogError):
-                raise
-            raise ObservationLogError(f"{log_path}: line {k + 2}, column image: {name}: {e}") from None
+            raise ObservationLogError(f"{log_path}: line {k + 2}, column image: {log.image[k]}: {e}") from None
         scene[k], rotation[k] = m.template, m.rotation
         if progress is not None:
             progress(k + 1, n)
     return dataclasses.replace(log, scene_id=scene, view_rotation=rotation)
+
+
+FORWARD_TEMPLATE_WIDTH = 32
+"""Template columns derived for a forward camera (the default matcher's, 1.6 degrees each at 50)."""
+MAX_TEMPLATE_HEIGHT = 16
+"""The most template rows derived from an image's aspect."""
+
+
+def derived_template_size(columns: int, rows: int, panoramic: bool) -> tuple[int, int]:
+    """The template (columns, rows) for a cropped image of ``columns`` x ``rows``: half the image's
+    columns, at most :data:`FORWARD_TEMPLATE_WIDTH` (forward) or :data:`PANORAMIC_TEMPLATE_WIDTH`
+    (panoramic), and rows in the image's aspect, between 1 and :data:`MAX_TEMPLATE_HEIGHT` (and
+    at most the image's rows). The simulator's 64x16 forward and 128x16 panoramic images get the
+    defaults, 32x8 and 64x8."""
+    cap = PANORAMIC_TEMPLATE_WIDTH if panoramic else FORWARD_TEMPLATE_WIDTH
+    width = max(2, min(columns // 2, cap))
+    height = max(1, min(round(width * rows / columns), MAX_TEMPLATE_HEIGHT, rows))
+    return width, height
+
+
+SELF_SIMILAR_WINDOW_S = 60.0
+"""The stretch at the start of a log whose views set the match threshold."""
+SELF_SIMILAR_TRAVEL_M = 0.3
+"""Each view in that stretch is compared with the view this much odometry travel before it."""
+SELF_SIMILAR_SCALE = 0.9
+"""The threshold is this times the median of those differences: on the simulator's default
+forward camera (small loop, seed 0; median 0.0441) that is 0.0397, about the fixed default 0.04
+(docs/your-camera.md measures the rule on other sizes, noise, light and worlds)."""
+SELF_SIMILAR_MIN_PAIRS = 20
+"""Fewer pairs than this (a robot that hardly moved) keep the configured threshold."""
+
+
+def self_similarity(frame: Callable[[int], np.ndarray], log: ObservationLog, config: ViewConfig) -> tuple[float, int]:
+    """The median least difference (over the matcher's shifts, with ``config``'s template)
+    between each view of the log's first :data:`SELF_SIMILAR_WINDOW_S` seconds and the view
+    :data:`SELF_SIMILAR_TRAVEL_M` of odometry travel before it, and the number of such pairs
+    (NaN, 0 if none). ``frame(k)`` is tick ``k``'s image."""
+    window = np.flatnonzero(log.t <= log.t[0] + SELF_SIMILAR_WINDOW_S)
+    travel = np.cumsum(np.abs(log.v_trans * log.dt))
+    matcher = ViewMatcher(config)
+    plain = dataclasses.replace(  # compares templates as they are: no crop, no normalisation again
+        config,
+        crop_top=0,
+        crop_bottom=0,
+        crop_left=0,
+        crop_right=0,
+        global_normalisation=False,
+        patch_normalisation_radius=0,
+    )
+    templates: dict[int, np.ndarray] = {}
+
+    def template(k: int) -> np.ndarray:
+        if k not in templates:
+            templates[k] = matcher.template_of(frame(k))
+        return templates[k]
+
+    diffs = []
+    for k in window:
+        j = int(np.searchsorted(travel, travel[k] - SELF_SIMILAR_TRAVEL_M, side="right")) - 1
+        if j < 0:
+            continue
+        probe = ViewMatcher(plain)
+        probe.store(template(j))
+        d, _ = probe.differences(template(int(k)))
+        diffs.append(float(d[0]))
+    return (float(np.median(diffs)), len(diffs)) if diffs else (math.nan, 0)
+
+
+def self_similar_threshold(frame: Callable[[int], np.ndarray], log: ObservationLog, config: ViewConfig):
+    """The match threshold from the first minute's self-similarity (:data:`SELF_SIMILAR_SCALE`
+    times :func:`self_similarity`), or None where there are fewer than
+    :data:`SELF_SIMILAR_MIN_PAIRS` pairs; and the line saying how it was derived."""
+    median, pairs = self_similarity(frame, log, config)
+    if pairs < SELF_SIMILAR_MIN_PAIRS:
+        return None, (
+            f"match threshold {config.match_threshold:g} as configured: only {pairs} views of the first "
+            f"{SELF_SIMILAR_WINDOW_S:g} s lie {SELF_SIMILAR_TRAVEL_M:g} m of travel after another"
+        )
+    threshold = SELF_SIMILAR_SCALE * median
+    return threshold, (
+        f"match threshold {threshold:.4g} = {SELF_SIMILAR_SCALE:g} x {median:.4g}, the median difference of the "
+        f"first {SELF_SIMILAR_WINDOW_S:g} s's views to those {SELF_SIMILAR_TRAVEL_M:g} m of travel before "
+        f"({pairs} pairs)"
+    )
+
+
+def log_camera_view(
+    log: ObservationLog, log_path, view: ViewConfig, given: Collection[str] = (), fov_deg: float | None = None
+) -> tuple[ViewConfig, str]:
+    """The matcher's settings for a camera log: ``view`` with the fields not in ``given`` (the
+    ``[ratslam.view]`` keys a configuration file set) derived from the log, and a line saying what
+    was derived. The field of view: ``fov_deg`` (``--fov``), else the configuration file's, else
+    the log's camera description (:data:`worlds.image_log.CAMERA_FILE`), else a one-line error
+    saying how to give it. The template size: :func:`derived_template_size` of the first image's
+    cropped size. The match threshold: :func:`self_similar_threshold` of the log's first minute
+    (docs/your-camera.md measures it against the fixed default)."""
+    assert log.image is not None
+    said = []
+    if fov_deg is not None:
+        fov = check_field_of_view(fov_deg, "--fov")
+        said.append(f"field of view {fov:g} deg from --fov")
+    elif "field_of_view_deg" in given:
+        fov = view.field_of_view_deg
+    else:
+        described = read_camera_description(log_path, log.image[0])
+        if described is None:
+            raise ObservationLogError(
+                f"{log_path}: the camera's horizontal field of view is unknown: give it with --fov DEG "
+                "(or field_of_view_deg under [ratslam.view] in a --config file; 360 for a panoramic camera)"
+            )
+        fov = described.field_of_view_deg
+        said.append(f"field of view {fov:g} deg from {Path(log.image[0]).parent / CAMERA_FILE}")
+    view = dataclasses.replace(view, field_of_view_deg=fov)
+    if not {"template_width", "template_height"} <= set(given):
+        where = f"{log_path}: line 2, column image: {log.image[0]}"
+        columns, rows = image_size(Path(log_path).parent / log.image[0], where)
+        cropped = (columns - view.crop_left - view.crop_right, rows - view.crop_top - view.crop_bottom)
+        if min(cropped) < 1:
+            raise ObservationLogError(f"{where}: {columns}x{rows} pixels, nothing left after view.crop_*")
+        width, height = derived_template_size(*cropped, view.panoramic)
+        if "template_width" in given:
+            width = view.template_width
+            height = max(1, min(round(width * cropped[1] / cropped[0]), MAX_TEMPLATE_HEIGHT, cropped[1]))
+        elif "template_height" in given:
+            height = view.template_height
+        view = dataclasses.replace(view, template_width=width, template_height=height)
+        said.append(f"template {width}x{height} from the {cropped[0]}x{cropped[1]} (cropped) images")
+    if "match_threshold" not in given:
+        size = image_size(Path(log_path).parent / log.image[0], f"{log_path}: line 2, column image: {log.image[0]}")
+        draft_to = _draft_to(view)
+        names = log.image
+
+        def frame(k: int) -> np.ndarray:
+            return read_image(log_path, k + 2, names[k], size, draft_to)
+
+        threshold, line = self_similar_threshold(frame, log, view)
+        if threshold is not None:
+            view = dataclasses.replace(view, match_threshold=threshold)
+        said.append(line)
+    return view, ("View matcher: " + "; ".join(said) + ".") if said else ""

@@ -119,6 +119,7 @@ def _cmd_replay(args) -> None:
         config=config,
         ratslam=_ratslam_choice(args.ratslam, config, "defaults"),
         yes=args.yes,
+        fov_deg=args.fov,
     )
     _print_run_summary(out)
 
@@ -197,6 +198,60 @@ def _cmd_import_rosbag(args) -> None:
         seed=args.seed,
     )
     _write_imported(log, out)
+
+
+def _cmd_import_images(args) -> None:
+    from worlds.image_folder import import_image_folder
+    from worlds.image_log import CameraDescription, write_image_log
+
+    out = check_writable(args.out, inputs=(args.odometry, args.gt))
+    paired = import_image_folder(
+        args.folder, args.odometry, ground_truth=args.gt, rate=args.rate, time_unit=args.time_unit
+    )
+    camera = None if args.fov is None else CameraDescription(args.fov, source="ratslam-harness import images")
+    log = write_image_log(out, paired.odometry, paired.images, camera)
+    skipped = f"; {paired.skipped} ticks before the first image left out" if paired.skipped else ""
+    print(
+        f"wrote {out} and {out.stem}_images/ ({len(log)} ticks, {len(set(paired.images))} images"
+        f"{', ground truth' if log.has_ground_truth else ''}{skipped})"
+    )
+
+
+def _import_images_parser(isub) -> None:
+    """``import images FOLDER --odometry ODOM.tum --out LOG.csv``: an image folder as an image log."""
+    im = isub.add_parser(
+        "images",
+        help="a folder of camera images (time stamps or frame numbers in their names) and a TUM odometry "
+        "trajectory as an image log: each tick with the latest image at or before it",
+    )
+    im.add_argument("folder", help="folder of .png / .jpg images, each name carrying its time stamp or frame number")
+    im.add_argument("--odometry", required=True, help="odometry trajectory (TUM: t x y z qx qy qz qw)")
+    im.add_argument("--out", required=True, help="image log to write (CSV; its images go to LOG_images/)")
+    im.add_argument("--gt", help="ground-truth trajectory (TUM), interpolated at the odometry's times")
+    im.add_argument(
+        "--rate", type=_positive, help="the names carry frame numbers taken at this rate (Hz) from the odometry's start"
+    )
+    im.add_argument(
+        "--time-unit", choices=("s", "ms", "us", "ns"), default="s", help="unit of the names' time stamps (default s)"
+    )
+    im.add_argument("--fov", type=_fov, help="the camera's horizontal field of view, degrees (recorded for replay)")
+    im.set_defaults(func=_cmd_import_images)
+
+
+def _fov(text: str) -> float:
+    v = _positive(text)
+    if v > 360.0:
+        raise argparse.ArgumentTypeError(f"must be at most 360 degrees, got {text!r}")
+    return v
+
+
+def _fov_option(parser) -> None:
+    parser.add_argument(
+        "--fov",
+        type=_fov,
+        help="a camera log's horizontal field of view, degrees (360: panoramic; default: [ratslam.view] "
+        "field_of_view_deg in --config, else the log's camera.toml)",
+    )
 
 
 def _cmd_report(args) -> None:
@@ -424,7 +479,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
 
     rp = sub.add_parser("replay", help="replay an observation log (CSV) through both systems")
-    rp.add_argument("log", help="observation log: t,dt,v_trans,v_rot,scene_id[,gt_x,gt_y,gt_theta,false_positive]")
+    rp.add_argument(
+        "log",
+        help="observation log: t,dt,v_trans,v_rot,scene_id (or image)[,gt_x,gt_y,gt_theta,false_positive]",
+    )
     rp.add_argument("--out", required=True, help="run directory to write")
     rp.add_argument(
         "--config",
@@ -432,6 +490,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rp.add_argument("--no-recording", action="store_true", help="skip the Rerun recording")
     _ratslam_option(rp, "defaults")
+    _fov_option(rp)
     rp.add_argument("--quiet", action="store_true", help="no progress output")
     _yes_option(rp)
     rp.set_defaults(func=_cmd_replay)
@@ -473,6 +532,7 @@ def build_parser() -> argparse.ArgumentParser:
     rb.add_argument("--twist", action="store_true", help="odometry from the messages' twist, not pose differences")
     _label_options(rb, "place-label topic (std_msgs integer, field data)")
     rb.set_defaults(func=_cmd_import_rosbag)
+    _import_images_parser(isub)
 
     sw = sub.add_parser(
         "sweep",

@@ -16,7 +16,8 @@ first puts RatSLAM at the paper's published algorithm (:meth:`ratslam.RatSLAMCon
 the file's fields then go on top of it (one departure switched on over the paper, say).
 Reading validates everything and reports a problem as one line naming the file, the table, the key and the problem
 (:class:`ConfigFileError`), e.g. ``c.toml: [ratslam.pose_cells] nx: must be an integer >= 4,
-got 3``. Every run directory gets the effective configuration as ``config.toml``; feeding that
+got 3``. A field given by an earlier name (a unit changed) is read under its new name, converted,
+with one line on stderr saying so. Every run directory gets the effective configuration as ``config.toml``; feeding that
 file back (``replay LOG --config RUN/config.toml``) reproduces the run bit for bit, since floats
 are written with ``repr`` (exact round trip).
 """
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -33,7 +35,7 @@ from typing import Any, NoReturn
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
-from ratslam.config_fields import ConfigError, replace, subconfigs
+from slamkit.config_fields import ConfigError, renamed, replace, subconfigs
 from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_text
 
@@ -88,21 +90,45 @@ class ConfigOverrides:
             raise ConfigFileError(f"{self.source}: {where(table, e)}") from None
 
 
-def read_config_table(cls: type, values: dict, table: str, fail: Callable[[str, str], NoReturn]) -> dict:
+def renamed_note(where_: str, key: str, new_key: str, unit: str, value: Any) -> str:
+    """The one line said when a file gives a field by an earlier name."""
+    return f"{where_} {key}: now {new_key} ({unit}); read as {new_key} = {value!r}"
+
+
+def _note(line: str) -> None:
+    print(f"note: {line}", file=sys.stderr)
+
+
+def read_config_table(
+    cls: type,
+    values: dict,
+    table: str,
+    fail: Callable[[str, str], NoReturn],
+    note: Callable[[str], None] = _note,
+) -> dict:
     """The entries of TOML table ``[table]`` for config class ``cls``, checked for known keys and
     for sub-tables where the class has sub-configs (values are checked when applied). Problems go
-    to ``fail(where, problem)``, ``where`` like ``[ratslam.pose_cells] nx``."""
+    to ``fail(where, problem)``, ``where`` like ``[ratslam.pose_cells] nx``. A field given by an
+    earlier name (``cls.RENAMED``) is read under its new name, converted, with one line to
+    ``note`` (stderr by default) saying so."""
     names = {f.name for f in dataclasses.fields(cls)}
     subs = subconfigs(cls)
     out: dict[str, Any] = {}
     for key, value in values.items():
+        earlier = renamed(cls, key, value)
+        if earlier is not None:
+            entry, value = earlier
+            if entry.name in values:
+                fail(f"[{table}] {key}", f"an earlier name of {entry.name}, which is given too")
+            note(renamed_note(f"[{table}]", key, entry.name, entry.unit, value))
+            key = entry.name
         if key not in names:
             hint = f"; a quoted dotted key? write it bare: {key} = ..." if "." in key else ""
             fail(f"[{table}] {key}", f"unknown key (not a field of {cls.__name__}){hint}")
         if key in subs:
             if not isinstance(value, dict):
                 fail(f"[{table}] {key}", f"expected a table [{table}.{key}], got {value!r}")
-            out[key] = read_config_table(subs[key], value, f"{table}.{key}", fail)
+            out[key] = read_config_table(subs[key], value, f"{table}.{key}", fail, note)
         elif isinstance(value, dict):
             fail(f"[{table}] {key}", "expected a value, got a table")
         else:
@@ -127,6 +153,9 @@ def read_config_file(path) -> ConfigOverrides:
     def fail(where_: str, problem: str) -> NoReturn:
         raise ConfigFileError(f"{path}: {where_}: {problem}")
 
+    def note(line: str) -> None:
+        _note(f"{path}: {line}")
+
     tables = {}
     preset = None
     for table, values in raw.items():
@@ -137,7 +166,7 @@ def read_config_file(path) -> ConfigOverrides:
         if table == "ratslam":
             values = dict(values)
             preset = read_preset(values, "[ratslam]", fail)
-        tables[table] = read_config_table(TABLES[table], values, table, fail)
+        tables[table] = read_config_table(TABLES[table], values, table, fail, note)
     overrides = ConfigOverrides(
         ratslam=tables.get("ratslam", {}), gtsam=tables.get("gtsam", {}), source=str(path), preset=preset
     )

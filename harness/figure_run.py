@@ -513,6 +513,21 @@ def _inputs(config: ConfigOverrides | None) -> tuple[Path, ...]:
     return (Path(config.source),) if config is not None and config.source else ()
 
 
+def _camera_log_view(log, log_path, ratslam_config, gtsam_config, config, fov_deg):
+    """The matcher's settings for a camera log: the caller's or the configuration file's view,
+    with what neither gives derived from the log (a caller's ``ratslam_config`` gives every field)."""
+    from .camera_stream import log_camera_view
+
+    rs = ratslam_config or RatSLAMConfig()
+    given: set[str] = set()
+    if ratslam_config is not None:
+        given = {f.name for f in dataclasses.fields(rs.view)}
+    if config is not None:
+        rs, _ = config.apply(rs, gtsam_config or PoseGraphConfig())
+        given |= set(config.ratslam.get("view", {}))
+    return log_camera_view(log, log_path, rs.view, given, fov_deg)
+
+
 def replay(
     log_path,
     out,
@@ -523,23 +538,27 @@ def replay(
     config: ConfigOverrides | None = None,
     ratslam: RatSLAMChoice = "defaults",
     yes: bool = False,
+    fov_deg: float | None = None,
 ) -> Path:
     """Replay a user's observation log through both systems into run directory ``out``
     (``config``, from a configuration file, on top of the given configurations or, where none is
     given, of those :func:`harness.scale.derive_configs` derives from the log's speed, tick rate
     and labels; the simulator's own streams get exactly the defaults). A camera log's images are
-    matched first (the effective ``view`` settings), its template numbers and rotations then
+    matched first (the effective ``view`` settings, those not given derived from the images and
+    the field of view from ``fov_deg``, the configuration or the log's camera description:
+    :func:`harness.camera_stream.log_camera_view`), its template numbers and rotations then
     replayed (:mod:`harness.camera_stream`). ``ratslam``: the project's defaults (the default),
     the published algorithm, or both on the same stream. A grid or log beyond the size budget
     (:mod:`harness.budget`) is refused before anything runs unless ``yes``."""
     log = ObservationLog.read_csv(log_path)
+    camera_view, camera_derivation = None, ""
+    if fov_deg is not None and log.image is None:
+        raise InputError(f"{log_path}: --fov: the log has no image column (a field of view is for camera logs)")
     if log.image is not None:
+        camera_view, camera_derivation = _camera_log_view(log, log_path, ratslam_config, gtsam_config, config, fov_deg)
         from .camera_stream import match_camera_log
 
-        view = ratslam_config or RatSLAMConfig()
-        if config is not None:
-            view, _ = config.apply(view, gtsam_config or PoseGraphConfig())
-        log = match_camera_log(log, log_path, view.view)
+        log = match_camera_log(log, log_path, camera_view)
     name = Path(log_path).name
     if ratslam_config is not None and gtsam_config is not None:
         rs_cfg, pg_cfg = ratslam_config, gtsam_config
@@ -547,6 +566,9 @@ def replay(
     else:
         derived_rs, derived_pg, derivation = derive_configs(log)
         rs_cfg, pg_cfg = ratslam_config or derived_rs, gtsam_config or derived_pg
+    if camera_view is not None:
+        rs_cfg = dataclasses.replace(rs_cfg, view=camera_view)
+        derivation = f"{derivation}\n{camera_derivation}" if camera_derivation else derivation
     if config is not None:
         rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
     check_grid(str(config.source if config is not None and config.source else log_path), rs_cfg.shape, yes)

@@ -104,10 +104,10 @@ def simulate_to_files(
     )
     log = simulate(world, duration=duration, seed=seed, bias_deg_s=bias_deg_s, fp_rate=fp_rate, progress=progress)
     if camera is not None:
-        from .camera_stream import write_images
+        from .camera_stream import simulated_camera, write_images
 
         frames = Camera(world, camera, seed=seed).render_poses(log.ground_truth(), log.t)
-        log = dataclasses.replace(log, image=write_images(frames, out))
+        log = dataclasses.replace(log, image=write_images(frames, out, simulated_camera(world, camera)))
     gt = log.ground_truth()
     with output_errors(out), atomic_path(out) as csv_tmp, atomic_path(png) as png_tmp:
         log.write_csv(csv_tmp)

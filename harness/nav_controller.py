@@ -44,6 +44,8 @@ from typing import Protocol, cast
 
 import numpy as np
 
+from slamkit.poses import range_bearing
+
 TURN_HOLD_RAD = math.radians(150.0)
 
 
@@ -218,7 +220,7 @@ class RouteController:
     def _steer(self, target, x: float, y: float, th: float) -> tuple[float, float]:
         """Pure pursuit towards ``target``: turn on the spot beyond 60 deg of heading error."""
         p = self.params
-        err = (math.atan2(target[1] - y, target[0] - x) - th + math.pi) % (2.0 * math.pi) - math.pi
+        _, err = range_bearing((x, y, th), target)
         max_turn = math.radians(p.max_turn_rate_deg)
         if abs(err) > TURN_HOLD_RAD and self._w_last != 0.0:
             # a target behind: keep turning the way the robot already turns (the command acts a

@@ -25,27 +25,9 @@ goal point) or at the timeout, ``timeout_factor`` x the shortest route's time + 
 RatSLAM's configuration. Unless one is given, RatSLAM runs with its re-entry fusion on, weighted
 by the same noise model the pose graph gives its loop closures and odometry
 (:func:`navigation_ratslam_config`): a scene match as a 1 m cell and a 90 deg sector deserve
-(sigma 0.41 m, 37 deg), the odometry trusted throughout (the pose graph's is), and the fixes
-chained (``reentry.chain_fixes``). Why (measured on office_floor, seed 0, 50 goals):
-
-- with the paper's re-entries the robot's heading is the pose cells', and in closed loop that is
-  biased: a scene number only says which 90 deg sector the robot faces and its view cells learnt
-  their pose cells while the exploring robot drove along the corridors, so whenever the
-  navigating robot drives a few degrees off that line, view injection pulls the packet's heading
-  back to the learnt one (pose-cell heading error 2 deg in exploration, 18-35 deg after a few
-  goals; 0-24% of goals reached over four seeds);
-- fused with the covariance since the robot was last at the place, a re-entry into a place last
-  seen an hour ago trusts the odometry's prediction as little as an hour of odometry deserves,
-  so the heading still follows the pose cells (3 to 30 deg off within 15 goals). Chained, the
-  prediction is as good as the latest fused re-entry carried along the few metres since, and
-  the heading stays within about 10 deg (fixes not chained: 9 of 50 goals; chained: 31);
-- the odometry trust limit latched during navigation when the robot slid along a wall (wheel
-  odometry that does not see the sideways motion) and left the pose to the pose cells for the
-  rest of the run;
-- the loop-closure sequence (``experience_map.loop_closure_sequence``) is off: each re-entry it
-  holds for the next scene leaves the robot on a new experience beside the map's routes, and the
-  routes planned from there cost time (seeds 0 / 1: median time ratio 1.40 / 1.24 with it, 1.00 /
-  1.01 without; goals reached 32 / 19 and 31 / 18).
+(sigma 0.41 m, 37 deg), the odometry trusted throughout (the pose graph's is), the fixes chained
+(``reentry.chain_fixes``) and no loop-closure sequence. Why, with the measurements: docs/navigation.md
+("RatSLAM's configuration for navigating").
 
 Judging (ground truth, metrics only). Reached = the controller declared arrival and the robot's
 true position is within ``success_radius`` m of the goal's true place; an arrival farther away is

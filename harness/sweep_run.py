@@ -40,6 +40,7 @@ _ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THR
 # What a run's result depends on: the SLAM packages, the simulator and worlds, and the harness
 # modules that run a stream and measure it (not the figures, reports or CLI).
 _RESULT_SOURCES = (
+    "slamkit/*.py",
     "ratslam/*.py",
     "baselines/*.py",
     "worlds/*.py",

@@ -71,7 +71,7 @@ import numpy as np
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
-from ratslam.config_fields import ConfigError, replace
+from slamkit.config_fields import ConfigError, replace
 from worlds import load_world
 from worlds.errors import InputError
 

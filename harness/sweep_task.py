@@ -21,7 +21,7 @@ import numpy as np
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from ratslam import RatSLAM, RatSLAMConfig
-from ratslam.config_fields import from_dict, replace
+from slamkit.config_fields import from_dict, replace
 from worlds import ObservationLog, World, load_world, simulate
 from worlds.world import CameraSpec, OdometrySpec, SceneSpec
 

@@ -3,7 +3,7 @@
 ``RatSLAMConfig(pose_cells=PoseCellConfig(...), local_view=LocalViewConfig(...),
 experience_map=ExperienceMapConfig(...), reentry=ReentryFusionConfig(...),
 yaw_bias=YawBiasConfig(...), view=ViewConfig(...))``; every field is
-checked by :func:`ratslam.config_fields.check_fields`. Units: pose-cell quantities are in cell
+checked by :func:`slamkit.config_fields.check_fields`. Units: pose-cell quantities are in cell
 units (x', y' cells of ``cell_size_m``, θ' cells of ``360 / n_theta`` degrees); map quantities
 are in metres and radians; rates per second. Why each default is what it is (the measured
 trade-offs) is in ``docs/configuration.md``, one section per sub-config.
@@ -15,7 +15,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
-from .config_fields import ConfigError, check_fields, param, replace
+from slamkit.config_fields import ConfigError, check_fields, param, replace
+from slamkit.yaw_bias import YawBiasSearchConfig
+
 from .published import published_changes
 
 Energy = Literal["sum", "product"]
@@ -193,25 +195,12 @@ class ReentryFusionConfig:
 
 
 @dataclass(frozen=True)
-class YawBiasConfig:
+class YawBiasConfig(YawBiasSearchConfig):
     """A constant yaw-rate (gyro) bias in the odometry, searched from revisited scene numbers and
-    taken off: not in the paper, on by default (:mod:`ratslam.yaw_bias`, the same search as the
-    pose graph's; docs/configuration.md#ratslam-yaw-rate-bias)."""
+    taken off: not in the paper, on by default (the search's fields and the search itself are the
+    pose graph's too, :mod:`slamkit.yaw_bias`; docs/configuration.md#ratslam-yaw-rate-bias).
+    ``search`` on: once a bias is adopted, the transitions and the yaw rate fed on are corrected."""
 
-    SECTION: ClassVar[str] = "yaw_bias"
-
-    search: bool = True
-    """Search the bias and, once one is adopted, correct the transitions and the yaw rate fed on."""
-    search_max_deg_s: float = param(3.0, gt=0)
-    """Largest |bias| searched (below the alias 360 / lap time of the loops driven)."""
-    search_step_deg_s: float = param(0.05, gt=0)
-    """Grid step of the search (the minimum is refined by a parabola)."""
-    search_max_span_s: float = param(300.0, gt=0)
-    """Longest time between two sightings of a scene that still scores a revisit."""
-    search_kernel: float = param(3.0, gt=0)
-    """Geman-McClure width (Mahalanobis units) of a revisit's cost."""
-    search_min_gain: float = param(4.0, gt=0)
-    """A bias is adopted only if it lowers the summed revisit cost by at least this."""
     revisit_min_travel_m: float = param(4.0, ge=0)
     """Path between two sightings of a scene for them to score a revisit."""
     revisit_sigma_xy_m: float = param(1.0 / math.sqrt(6.0), gt=0)
@@ -222,9 +211,6 @@ class YawBiasConfig:
     """An adopted bias change that turns the map by more than this over the time it spans has the
     map correction solved to its fixed point at once (below it the per-tick correction carries
     the corrected transitions; inf: never). See the docs section."""
-
-    def __post_init__(self) -> None:
-        check_fields(self)
 
 
 @dataclass(frozen=True)

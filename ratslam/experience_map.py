@@ -51,12 +51,13 @@ import math
 
 import numpy as np
 
+from slamkit.poses import compose, wrap_angle, wrap_scalar
+
 from . import map_kernels
 from .columns import Growable
 from .config import RatSLAMConfig
 from .entry_offset import ON_THE_EXPERIENCE, EntryOffset
 from .map_layers import MapLayers
-from .poses import compose, wrap_angle, wrap_scalar
 from .reentry_policy import ReentryPolicy, Verdict
 
 __all__ = ["ExperienceMap", "wrap_angle"]

@@ -45,7 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config_fields import check_fields, param
+from slamkit.config_fields import check_fields, param
+
 from .pipeline import RatSLAM
 from .relocalisation import Alignment, OnsetWindow, ViewIndex, best_alignment, support
 

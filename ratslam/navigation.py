@@ -8,109 +8,19 @@ the quickest route is a shortest path over transitions weighted by elapsed time.
 
 A goal is a point in the experience map's own frame (a "click on the map"). The experience
 nearest to it, within ``goal_radius`` metres, is the goal experience; the route starts at the
-current experience. Planning reads only the map (no ground truth) and always terminates: a goal
-with no experience near it, or one not joined to the current experience, gives a result saying so.
+current experience (:func:`slamkit.routes.quickest_route`, the planner the pose graph's navigator
+uses too). Planning reads only the map (no ground truth) and always terminates: a goal with no
+experience near it, or one not joined to the current experience, gives a result saying so.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
+
+from slamkit.routes import Route, quickest_route
 
 from .localisation import LocaliserConfig, MapLocaliser
 from .pipeline import RatSLAM
-
-OK = "ok"
-NO_EXPERIENCE_NEAR_GOAL = "no experience near goal"
-UNREACHABLE = "unreachable"
-NOT_LOCALISED = "no current experience"
-
-_MIN_WEIGHT = 1e-6  # s; a zero-time transition still counts as an edge
-
-
-@dataclass(frozen=True)
-class Route:
-    """A planned route: ``status`` is :data:`OK` or says why there is none.
-
-    ``nodes`` are the experiences from the current one to the goal experience, ``waypoints`` their
-    map positions (x, y) when planned (the map correction moves them afterwards: re-read them from
-    the map by node), ``time_s`` the sum of the transitions' elapsed times (inf without a route).
-    """
-
-    status: str
-    nodes: np.ndarray
-    waypoints: np.ndarray
-    time_s: float
-    goal_node: int = -1
-
-    @property
-    def found(self) -> bool:
-        """Whether a route exists."""
-        return self.status == OK
-
-
-def _no_route(status: str, goal_node: int = -1) -> Route:
-    return Route(status, np.zeros(0, dtype=np.int64), np.zeros((0, 2)), math.inf, goal_node)
-
-
-def quickest_route(
-    node_xy: np.ndarray,
-    edges: np.ndarray,
-    weights: np.ndarray,
-    start: int,
-    goal_xy,
-    goal_radius: float,
-) -> Route:
-    """Quickest route over an undirected weighted graph of map places.
-
-    ``node_xy`` (N, 2) map positions; ``edges`` (M, 2) node pairs, each drivable both ways, with
-    ``weights`` (M,) (elapsed seconds; of parallel edges the quickest counts); ``start`` the node
-    the robot is at (-1: none). The goal node is the node nearest ``goal_xy`` within
-    ``goal_radius`` m. Dijkstra from ``start``; unreachable goals give status :data:`UNREACHABLE`.
-    """
-    node_xy = np.asarray(node_xy, dtype=float).reshape(-1, 2)
-    n = len(node_xy)
-    if start < 0 or start >= n:
-        return _no_route(NOT_LOCALISED)
-    gap = np.hypot(node_xy[:, 0] - goal_xy[0], node_xy[:, 1] - goal_xy[1])
-    goal = int(np.argmin(gap))
-    if gap[goal] > goal_radius:
-        return _no_route(NO_EXPERIENCE_NEAR_GOAL)
-    if goal == start:
-        return Route(OK, np.array([start]), node_xy[[start]].copy(), 0.0, goal)
-    graph = _undirected_graph(n, np.asarray(edges, dtype=np.int64).reshape(-1, 2), np.asarray(weights, dtype=float))
-    dist, pred = dijkstra(graph, directed=False, indices=start, return_predecessors=True)
-    if not math.isfinite(dist[goal]):
-        return _no_route(UNREACHABLE, goal)
-    path = [goal]
-    while path[-1] != start:
-        path.append(int(pred[path[-1]]))
-    nodes = np.array(path[::-1], dtype=np.int64)
-    return Route(OK, nodes, node_xy[nodes].copy(), float(dist[goal]), goal)
-
-
-def _undirected_graph(n: int, edges: np.ndarray, weights: np.ndarray):
-    """Sparse upper-triangular adjacency with the smallest weight of each node pair."""
-    keep = edges[:, 0] != edges[:, 1]
-    edges, weights = edges[keep], np.maximum(weights[keep], _MIN_WEIGHT)
-    lo, hi = edges.min(axis=1), edges.max(axis=1)
-    order = np.lexsort((weights, hi, lo))  # per pair, the quickest first
-    lo, hi, weights = lo[order], hi[order], weights[order]
-    first = np.ones(len(lo), dtype=bool)
-    first[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
-    return coo_matrix((weights[first], (lo[first], hi[first])), shape=(n, n)).tocsr()
-
-
-def range_bearing(pose, xy) -> tuple[float, float]:
-    """Range (m) and bearing (rad, relative to the heading, in [-π, π)) of point ``xy`` from
-    ``pose`` = (x, y, θ): what a controller follows."""
-    dx, dy = xy[0] - pose[0], xy[1] - pose[1]
-    bearing = (math.atan2(dy, dx) - pose[2] + math.pi) % (2.0 * math.pi) - math.pi
-    return math.hypot(dx, dy), bearing
 
 
 def plan_route(slam: RatSLAM, goal_xy, goal_radius: float = 1.0) -> Route:

@@ -9,9 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .arcs import check_tick
+from slamkit.arcs import check_tick
+from slamkit.config_fields import from_dict
+
 from .config import RatSLAMConfig
-from .config_fields import from_dict
 from .experience_map import ExperienceMap
 from .local_view import LocalView
 from .pose_cells import PoseCells

@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from .config_fields import subconfigs
+from slamkit.config_fields import subconfigs
 
 if TYPE_CHECKING:
     from .config import RatSLAMConfig

@@ -62,9 +62,10 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from slamkit.poses import between, compose, triple, wrap_scalar
+
 from .columns import Growable
 from .config import RatSLAMConfig
-from .poses import between, compose, triple, wrap_scalar
 from .reentry import N_SUMS, InnovationScale, PathNoise, innovation, kalman_fuse
 
 if TYPE_CHECKING:

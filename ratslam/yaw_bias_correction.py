@@ -1,6 +1,6 @@
 """The yaw-rate bias correction (``yaw_bias.search``, on by default; not in the paper).
 
-The search (:mod:`ratslam.yaw_bias`, shared with the pose graph) finds a constant yaw-rate
+The search (:mod:`slamkit.yaw_bias`, shared with the pose graph) finds a constant yaw-rate
 (gyro) bias from revisited scene numbers. :class:`YawBiasCorrection` runs it on RatSLAM's
 stream and, once it adopts a bias, takes the bias off every later tick's yaw rate and out of the
 experience map built so far (:func:`remove_yaw_bias`), acting on the map's arrays: without it the
@@ -16,27 +16,20 @@ import numpy as np
 from scipy.sparse import coo_matrix, identity
 from scipy.sparse.linalg import factorized
 
+from slamkit.poses import wrap_angle
+from slamkit.yaw_bias import YawBiasSearch
+
 from .config import RatSLAMConfig
-from .poses import wrap_angle
-from .yaw_bias import YawBiasSearch
 
 if TYPE_CHECKING:
     from .experience_map import ExperienceMap
 
 
 def bias_search(config: RatSLAMConfig) -> YawBiasSearch:
-    """The yaw-rate bias search of ``config.yaw_bias`` (degrees converted to radians)."""
+    """The yaw-rate bias search of ``config.yaw_bias``: revisits scored with its ``revisit_*``
+    fields (how far apart, how well a scene places the robot)."""
     yb = config.yaw_bias
-    return YawBiasSearch(
-        max_rad_s=math.radians(yb.search_max_deg_s),
-        step_rad_s=math.radians(yb.search_step_deg_s),
-        max_span_s=yb.search_max_span_s,
-        min_travel_m=yb.revisit_min_travel_m,
-        sigma_xy_m=yb.revisit_sigma_xy_m,
-        sigma_theta_rad=math.radians(yb.revisit_sigma_heading_deg),
-        kernel=yb.search_kernel,
-        min_gain=yb.search_min_gain,
-    )
+    return yb.bias_search(yb.revisit_min_travel_m, yb.revisit_sigma_xy_m, math.radians(yb.revisit_sigma_heading_deg))
 
 
 class YawBiasCorrection:
@@ -79,7 +72,7 @@ class YawBiasCorrection:
 
 def remove_yaw_bias(em: ExperienceMap, change: float, settle_map: bool = True) -> None:
     """The odometry's yaw rate was found to carry ``change`` rad/s more bias than assumed so
-    far (:mod:`ratslam.yaw_bias`); the caller feeds the corrected rate from now on. Every
+    far (:mod:`slamkit.yaw_bias`); the caller feeds the corrected rate from now on. Every
     transition of ``em`` loses the bias's turn over its elapsed time dt_ij: φ_ij by change·dt_ij,
     the bearing θ_ij by half that (the path turned gradually). With ``settle_map`` (a change that
     turns the map by a lot over its span: the turn grows along the whole map, which the per-tick

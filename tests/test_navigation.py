@@ -1,4 +1,5 @@
-"""Goal navigation: quickest routes on both maps, the map-only controller, closed-loop driving.
+"""Goal navigation: routes on both maps, the map-only controller, closed-loop driving (the planner
+itself: tests/test_slamkit.py).
 
 Paper (Milford, Prasser & Wyeth 2005, future work): "by incorporating time durations into the
 inter-experience link transitions, the quickest route to any location in the map can be found".
@@ -6,7 +7,6 @@ inter-experience link transitions, the quickest route to any location in the map
 
 import inspect
 import math
-import time
 
 import numpy as np
 import pytest
@@ -17,67 +17,15 @@ from harness.nav_controller import ControllerParams, RouteController
 from harness.nav_goals import draw_goal_ticks, route_network_distance
 from harness.navigation import run_navigation
 from ratslam import RatSLAM, RatSLAMConfig
+from slamkit.routes import quickest_route
 from worlds import load_world, simulate
 from worlds.drive import Drive, Observation
 from worlds.route import RouteFollower
 
-PLANNERS = [pytest.param(rnav, id="ratslam"), pytest.param(bnav, id="gtsam")]
-
 # A hand-made map: a square 0-1-2-3 (1 m sides) plus a diagonal 0-2 that is short but slow.
 SQUARE_XY = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-SQUARE_EDGES = np.array([[0, 1], [2, 1], [2, 3], [3, 0], [0, 2]])  # 2 -> 1 stored "backwards"
+SQUARE_EDGES = np.array([[0, 1], [2, 1], [2, 3], [3, 0], [0, 2]])
 SQUARE_SECONDS = np.array([3.0, 3.0, 1.0, 1.0, 10.0])
-
-
-@pytest.mark.parametrize("nav", PLANNERS)
-def test_quickest_route_weighs_time_not_hops(nav):
-    """0 -> 2: the one-hop diagonal takes 10 s, 0-1-2 takes 6 s, 0-3-2 takes 2 s: the quickest wins."""
-    route = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, SQUARE_SECONDS, 0, (1.0, 1.0), 0.5)
-    assert route.found and route.status == nav.OK
-    assert route.nodes.tolist() == [0, 3, 2]
-    assert route.time_s == pytest.approx(2.0)
-    assert np.allclose(route.waypoints, SQUARE_XY[[0, 3, 2]])
-
-
-@pytest.mark.parametrize("nav", PLANNERS)
-def test_transitions_are_driven_both_ways(nav):
-    """Links are stored i -> j; a route may drive them j -> i (here 2 -> 1 forwards and 1 -> 2 back)."""
-    slow_left = np.array([3.0, 3.0, 10.0, 10.0, 20.0])
-    there = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, slow_left, 0, (1.0, 1.0), 0.5)
-    back = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, slow_left, 2, (0.0, 0.0), 0.5)
-    assert there.nodes.tolist() == [0, 1, 2]
-    assert back.nodes.tolist() == [2, 1, 0]
-    assert there.time_s == back.time_s == pytest.approx(6.0)
-
-
-@pytest.mark.parametrize("nav", PLANNERS)
-def test_unreachable_goal_is_reported_quickly(nav):
-    """Two separate chains of 20 000 nodes: a goal on the other chain is 'unreachable', at once."""
-    n = 20_000
-    xy = np.stack((np.arange(2 * n, dtype=float), np.zeros(2 * n)), axis=1)
-    chain = np.stack((np.arange(n - 1), np.arange(1, n)), axis=1)
-    edges = np.concatenate((chain, chain + n))
-    t0 = time.perf_counter()
-    route = nav.quickest_route(xy, edges, np.ones(len(edges)), 0, (n + 5.0, 0.0), 0.5)
-    assert time.perf_counter() - t0 < 2.0
-    assert not route.found and route.status == nav.UNREACHABLE == "unreachable"
-    assert route.nodes.size == 0 and math.isinf(route.time_s)
-    assert route.goal_node == n + 5
-
-
-@pytest.mark.parametrize("nav", PLANNERS)
-def test_no_experience_near_goal(nav):
-    """A goal 2 m from the nearest place, with a 1 m radius, has no goal experience."""
-    route = nav.quickest_route(SQUARE_XY, SQUARE_EDGES, SQUARE_SECONDS, 0, (3.0, 1.0), 1.0)
-    assert not route.found
-    assert route.status == "no experience near goal"
-    assert nav.quickest_route(SQUARE_XY, SQUARE_EDGES, SQUARE_SECONDS, 0, (3.0, 1.0), 2.5).found
-
-
-@pytest.mark.parametrize("nav", PLANNERS)
-def test_range_bearing(nav):
-    r, b = nav.range_bearing((1.0, 1.0, math.pi / 2), (0.0, 1.0))
-    assert r == pytest.approx(1.0) and b == pytest.approx(math.pi / 2)
 
 
 def test_plan_route_reads_the_experience_maps_transition_times():
@@ -132,7 +80,7 @@ class _PointRobot:
     def plan(self, goal_xy):
         self.plans += 1
         start = int(np.argmin(np.hypot(*(self.xy - self.pose[:2]).T)))
-        return rnav.quickest_route(self.xy, self.edges, np.ones(len(self.edges)), start, goal_xy, 1.0)
+        return quickest_route(self.xy, self.edges, np.ones(len(self.edges)), start, goal_xy, 1.0)
 
     def node_xy(self, nodes):
         return self.xy[nodes]

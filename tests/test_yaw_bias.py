@@ -13,7 +13,7 @@ import pytest
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from baselines.pose_graph import _fit_se2, bias_search
-from ratslam.yaw_bias import _two_apart
+from slamkit.yaw_bias import _two_apart
 from tests.helpers import DT
 
 from .test_gtsam_pose_graph import square_stream
@@ -108,7 +108,7 @@ def test_a_search_range_that_holds_the_loop_alias_picks_it():
     ATE 2.95 m, and at 1.486 with 3 deg/s, 0.103 m."""
     stream = with_false_positives(biased(square_stream(laps=5), 1.5), 0.02)
     lap = 4 * (93 + 14) * DT
-    wide, _ = search(stream, search_max_rad_s=math.radians(10.0))
+    wide, _ = search(stream, search_max_deg_s=10.0)
     assert math.degrees(wide.bias) == pytest.approx(1.5 - 360.0 / lap, abs=0.1)
     narrow, _ = search(stream)
     assert math.degrees(narrow.bias) == pytest.approx(1.5, abs=0.1)

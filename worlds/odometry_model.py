@@ -16,11 +16,8 @@ Per tick, from the true forward speed ``v`` and yaw rate ``w`` (midpoint-heading
 - a constant yaw-rate bias ``bias_deg_s`` (a gyro's, or Figs 8-10's manipulation);
 - white noise ``noise_trans`` (m/s) and ``noise_rot`` (rad/s) on every tick.
 
-Calibrated against a real vehicle's wheel odometry (the CMU Plaza logs shipped with gtsam; 5 s
-windows of odometry against ground truth, least squares of the odometry's turn error on the true
-turn and the distance): scale error +0.08% (Plaza 1) and +0.01% (Plaza 2); turn error -1.29% and
-drift -0.107 deg/m on Plaza 2 (Plaza 1's heading equals its ground truth's: 0 and 0). Slip is not
-separable in those logs (paved ground, steady speeds); its defaults are off.
+The errors of a real vehicle's wheel odometry (the CMU Plaza logs), as calibrated for the figures'
+``wheel_errors`` variants, and how: docs/results.md. Slip is off by default.
 """
 
 from __future__ import annotations

@@ -1,48 +1,39 @@
 """A constant yaw-rate (gyro) bias searched from the odometry of repeated scene numbers.
 
 Used by both systems: the pose graph (``PoseGraphConfig.yaw_bias``) and RatSLAM
-(``RatSLAMConfig.yaw_bias``; see :mod:`ratslam.yaw_bias_correction`).
+(``RatSLAMConfig.yaw_bias``; see :mod:`ratslam.yaw_bias_correction`). Both configure it with the
+fields of :class:`YawBiasSearchConfig` (deg/s, as a user writes them), converted to rad/s here.
 
-The pose graph's wrapped heading residuals cannot close a loop whose heading error has grown
-past about 180 deg (1.5 deg/s over a 72 s lap is already 108 deg; see the traps in DESIGN.md),
-and the estimated bias *variable* (``yaw_bias.estimate``) is pulled into a wrong basin by a few
-false closures.  This module instead searches the bias, outside the graph:
+The search runs outside any graph, on the odometry and scene numbers alone:
 
-* The stream is cut into short chunks (at every scene onset, and at most
-  ``CHUNK_MAX_S`` seconds long).  For every candidate bias b on a grid
-  (``-search_max_rad_s .. +search_max_rad_s`` in steps of ``search_step_rad_s``) the raw
-  odometry re-integrated with ``(w - b)`` is kept as a prefix sum of complex chord vectors,
-  so the relative pose between any two chunk ends is O(1) per candidate:
-  the chord of chunk m, measured in its start frame, is turned by the corrected heading
-  ``Theta_m - b (t_m + tau_m / 2)`` (the bias bends a chunk of duration tau_m by b tau_m;
-  its chord turns by half of that to first order).
+* The stream is cut into short chunks (at every scene onset, and at most ``CHUNK_MAX_S``
+  seconds long).  For every candidate bias b on a grid (``-search_max_deg_s ..
+  +search_max_deg_s`` in steps of ``search_step_deg_s``) the raw odometry re-integrated with
+  ``(w - b)`` is kept as a prefix sum of complex chord vectors, so the relative pose between any
+  two chunk ends is O(1) per candidate: the chord of chunk m, measured in its start frame, is
+  turned by the corrected heading ``Theta_m - b (t_m + tau_m / 2)`` (the bias bends a chunk of
+  duration tau_m by b tau_m; its chord turns by half of that to first order).
 * A *revisit* is a scene onset (the first tick of a scene number, -1 excluded) whose scene
-  number had an onset at least ``closures.min_travel_m`` of path and at most
-  ``search_max_span_s`` seconds earlier.  Re-integrated with b, the loop between the two
-  sightings should close: its residual ``r^2(b) = |dp|^2 / s_xy^2 + wrap(dtheta)^2 / s_th^2``
-  uses the closures' own sigmas (one scene cell, one heading sector).
+  number had an onset at least ``min_travel_m`` of path and at most ``search_max_span_s``
+  seconds earlier.  Re-integrated with b, the loop between the two sightings should close: its
+  residual ``r^2(b) = |dp|^2 / s_xy^2 + wrap(dtheta)^2 / s_th^2`` uses the caller's sigmas (one
+  scene cell, one heading sector).
 * Each revisit (a pair of sightings: an onset with several earlier sightings in range makes
   several) scores ``rho(b) = r^2 / (k^2 + r^2)`` (Geman-McClure, capped at 1), so a
   false-positive or aliased scene costs at most 1 whatever b is, and the cost ``C(b)`` summed
-  over revisits is minimised.  (Keeping only an onset's best sighting instead lets loops of
-  n laps alias: a 3-lap revisit closes at b - 360 / (3 T), and false positives then pick it.)
+  over revisits is minimised.
 * A bias b* is adopted (replacing the current b_c, 0 at first) only when it is an interior
   minimum of the grid, lowers C by at least ``search_min_gain`` and by ``NOISE_GAIN``
-  sqrt(revisits) (what chance revisits can do), and at least two revisits that are inliers
-  at b* (r < k) but outliers at b_c, and whose time spans overlap by less than half the
-  shorter, agree on it: one loop, however long, is not enough evidence.  Once a bias is
+  sqrt(revisits), and at least two revisits that are inliers at b* (r < k) but outliers at
+  b_c, and whose time spans overlap by less than half the shorter, agree on it.  Once a bias is
   adopted, the cost's minimum moving by half a grid step or more (at most ``REFINE_RAD_S``)
-  refines it when that gains ``search_min_gain``: the evidence for a bias is in, the
-  revisits since say more precisely where it is.
+  refines it when that gains ``search_min_gain``.
 * The search range must stay below the alias of the loops driven: a loop of T seconds closes
-  about as well at b and at b - 360 / T deg/s (a square lap turned by one extra turn still
-  closes), and false scenes tip the balance to the alias (measured on small_loop, lap 63 s:
-  1.5 deg/s with a 10 deg/s range adopts -4.2).  Hence the default 3 deg/s.
+  about as well at b and at b - 360 / T deg/s.
 
-The pose graph then rebuilds itself from the stored ticks with the corrected odometry (see
-``PoseGraphSLAM._rebuild``); RatSLAM corrects its transitions and feeds the corrected yaw rate
-on.  Only odometry and scene numbers are used, never ground
-truth; everything is a deterministic function of the stream.
+Why each rule and default is what it is, with the measurements, is in docs/configuration.md
+(pose graph: yaw-rate bias). Only odometry and scene numbers are used, never ground truth;
+everything is a deterministic function of the stream.
 """
 
 from __future__ import annotations
@@ -50,18 +41,18 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from .arcs import integrate
+from .config_fields import check_fields, param
 
 CHUNK_MAX_S = 1.0
 """Longest chunk (s): keeps the bias's bend of a chunk small (10 deg/s bends 1 s by 10 deg)."""
 NOISE_GAIN = 0.5
-"""The gain must also reach this times sqrt(revisits): N chance (false-positive or aliased)
-revisits move the cost difference of two biases by about 0.3 sqrt(N), so 0.5 sqrt(N) keeps
-chance from adopting a bias (measured: wrong adoptions at 10% false-positive ticks had gains
-of 0.24-0.27 sqrt(N), right ones 0.47-2.7 sqrt(N))."""
+"""The gain must also reach this times sqrt(revisits): what N chance (false-positive or aliased)
+revisits can do to the cost difference of two biases (measured in docs/configuration.md)."""
 REFINE_RAD_S = math.radians(0.25)
 """An adopted bias moves by at most this with only ``search_min_gain`` (a refinement)."""
 MAX_PAIR_RECORDS = 2000
@@ -289,3 +280,44 @@ def _two_apart(spans: list[tuple[float, float]]) -> bool:
     apart = overlap < 0.5 * shorter
     np.fill_diagonal(apart, False)
     return bool(apart.any())
+
+
+@dataclass(frozen=True)
+class YawBiasSearchConfig:
+    """The search's fields, in one unit system (deg/s, as users write them): the base of both
+    systems' ``yaw_bias`` configurations (``ratslam.YawBiasConfig``, ``baselines.YawBiasConfig``),
+    which add what the search needs from their own models (how far apart and how well a scene
+    places the robot) and their own fields."""
+
+    SECTION: ClassVar[str] = "yaw_bias"
+
+    search: bool = True
+    """Search the bias and, once one is adopted, take it off the odometry."""
+    search_max_deg_s: float = param(3.0, gt=0)
+    """Largest |bias| searched (below the alias 360 / lap time of the loops driven)."""
+    search_step_deg_s: float = param(0.05, gt=0)
+    """Grid step of the search (the minimum is refined by a parabola)."""
+    search_max_span_s: float = param(300.0, gt=0)
+    """Longest time between two sightings of a scene that still scores a revisit."""
+    search_kernel: float = param(3.0, gt=0)
+    """Geman-McClure width (Mahalanobis units) of a revisit's cost; r < this is an inlier."""
+    search_min_gain: float = param(4.0, gt=0)
+    """A bias is adopted only if it lowers the summed revisit cost by at least this."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+    def bias_search(self, min_travel_m: float, sigma_xy_m: float, sigma_theta_rad: float) -> YawBiasSearch:
+        """The search these fields configure (degrees converted to radians), scoring revisits at
+        least ``min_travel_m`` of path apart with a scene's sigmas ``sigma_xy_m`` (per axis) and
+        ``sigma_theta_rad``."""
+        return YawBiasSearch(
+            max_rad_s=math.radians(self.search_max_deg_s),
+            step_rad_s=math.radians(self.search_step_deg_s),
+            max_span_s=self.search_max_span_s,
+            min_travel_m=min_travel_m,
+            sigma_xy_m=sigma_xy_m,
+            sigma_theta_rad=sigma_theta_rad,
+            kernel=self.search_kernel,
+            min_gain=self.search_min_gain,
+        )

@@ -17,8 +17,9 @@ A problem is a :class:`ConfigError`, one line naming the field by its dotted pat
 ``pose_cells.nx: must be an integer >= 4, got 2``. Cross-field checks stay with the dataclass
 that owns the fields.
 
-This module lives in ``ratslam/`` so that both SLAM packages can use it without breaking the
-layering; it is the one thing ``baselines/`` imports from ``ratslam/``.
+A field renamed (say for a change of unit) keeps its earlier name readable: the config class
+declares ``RENAMED = {old_name: Renamed(new_name, unit, convert)}`` and :func:`renamed` gives a
+reader of users' files the new name and the converted value.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import math
 import numbers
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal, TypeVar
 
@@ -68,6 +69,27 @@ class Bounds:
         if self.high is not None:
             return f" {'<' if self.high_open else '<='} {self.high:g}"
         return ""
+
+
+@dataclass(frozen=True)
+class Renamed:
+    """A field's earlier name (declared in its class's ``RENAMED``): the field now, the unit it is
+    in, and what turns a value in the earlier unit into it."""
+
+    name: str
+    unit: str
+    convert: Callable[[float], float]
+
+
+def renamed(config_class: type, key: str, value: Any) -> tuple[Renamed, Any] | None:
+    """If ``key`` is an earlier name of a field of ``config_class``: its :class:`Renamed` and
+    ``value`` converted (a number only: anything else is left for the validator to refuse under
+    the new name); else None."""
+    entry = getattr(config_class, "RENAMED", {}).get(key)
+    if entry is None:
+        return None
+    number = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    return entry, entry.convert(float(value)) if number else value
 
 
 def param(

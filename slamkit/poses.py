@@ -1,6 +1,6 @@
-"""Poses in the plane (x, y, θ): wrapping angles, composing and relating poses.
+"""Poses in the plane (x, y, θ): wrapping angles, composing and relating poses, range and bearing.
 
-Shared by the experience map and the layers around it (re-entry policy, yaw-rate correction).
+Shared by RatSLAM's experience map and its layers, the pose graph and both navigators.
 """
 
 from __future__ import annotations
@@ -39,3 +39,10 @@ def between(a, b) -> tuple[float, float, float]:
     c, s = math.cos(a[2]), math.sin(a[2])
     dx, dy = b[0] - a[0], b[1] - a[1]
     return (c * dx + s * dy, -s * dx + c * dy, b[2] - a[2])
+
+
+def range_bearing(pose, xy) -> tuple[float, float]:
+    """Range (m) and bearing (rad, relative to the heading, in [-π, π)) of point ``xy`` from
+    ``pose`` = (x, y, θ): what a controller follows."""
+    dx, dy = xy[0] - pose[0], xy[1] - pose[1]
+    return math.hypot(dx, dy), wrap_scalar(math.atan2(dy, dx) - pose[2])
