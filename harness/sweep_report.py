@@ -22,15 +22,18 @@ import numpy as np
 from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_json
 
-from .sweep_spec import AXES
+from .sweep_spec import AXES, CAMERA_AXES, LOG_AXES, WORLD_AXES
 
 BREAKDOWN_ATE_M = 0.5
-COLUMNS = (
-    "run_id",
-    "world",
-    "duration_s",
-    "varied",
-    *AXES,
+_AXIS_SETS = (WORLD_AXES, LOG_AXES, CAMERA_AXES)
+
+
+def columns(axes: tuple[str, ...] = WORLD_AXES) -> tuple[str, ...]:
+    """runs.csv's columns for a sweep over ``axes`` (its base's: a world's, a log's, a camera's)."""
+    return ("run_id", "world", "duration_s", "varied", *axes, *_RESULT_COLUMNS)
+
+
+_RESULT_COLUMNS = (
     "seed",
     "system",
     "kind",
@@ -45,6 +48,8 @@ COLUMNS = (
     "run_wall_s",
     "error",
 )
+COLUMNS = columns(WORLD_AXES)
+"""runs.csv's columns for a simulated world's sweep."""
 WALL_COLUMNS = ("wall_s", "run_wall_s")
 
 
@@ -71,10 +76,10 @@ def result_rows(tasks: list[dict], runs_dir: Path) -> list[dict]:
         cond = task["condition"]
         common = {
             "run_id": task["run_id"],
-            "world": Path(str(task["world"])).stem,
+            "world": Path(str(task["world"] if "world" in task else task["log"])).stem,
             "duration_s": task["duration"],
             "varied": task["varied"],
-            **{a: cond[a] for a in AXES},
+            **cond,
             "seed": task["seed"],
             "ate_odometry": result.get("ate_odometry"),
             "run_wall_s": result["wall_s"],
@@ -104,13 +109,20 @@ def result_rows(tasks: list[dict], runs_dir: Path) -> list[dict]:
     return rows
 
 
-def csv_text(rows: list[dict]) -> str:
+def csv_text(rows: list[dict], axes: tuple[str, ...] = WORLD_AXES) -> str:
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(COLUMNS)
+    names = columns(axes)
+    writer.writerow(names)
     for row in rows:
-        writer.writerow([_cell(row.get(c)) for c in COLUMNS])
+        writer.writerow([_cell(row.get(c)) for c in names])
     return buf.getvalue()
+
+
+def row_axes(rows: list[dict]) -> tuple[str, ...]:
+    """The axes runs.csv's rows have values for (a world's, a log's or a camera's)."""
+    keys = set(rows[0]) if rows else set(WORLD_AXES)
+    return next((axes for axes in _AXIS_SETS if set(axes) <= keys), WORLD_AXES)
 
 
 def read_runs_csv(path) -> list[dict]:
@@ -120,7 +132,9 @@ def read_runs_csv(path) -> list[dict]:
         raise SweepReportError(f"{path}: missing (not a sweep directory)")
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
-        missing = set(COLUMNS) - set(reader.fieldnames or ())
+        header = set(reader.fieldnames or ())
+        axes = next((a for a in _AXIS_SETS if set(a) <= header), WORLD_AXES)
+        missing = set(columns(axes)) - header
         if missing:
             raise SweepReportError(f"{path}: missing column(s) {', '.join(sorted(missing))}")
         rows = []
@@ -184,6 +198,30 @@ def breakdown(rows: list[dict], bound: float = BREAKDOWN_ATE_M) -> dict:
     return out
 
 
+def against_odometry(rows: list[dict]) -> list[str]:
+    """Per axis, the median map ATE of each system at each value beside the odometry's median
+    (markdown lines); a median above the odometry's is marked with an asterisk."""
+    lines: list[str] = []
+    for axis in dict.fromkeys(r["varied"] for r in rows if r["varied"] in AXES):
+        per = curves(rows, axis)
+        odo = per.pop("odometry", None)
+        if odo is None:
+            continue
+        systems = list(per)
+        lines += [
+            f"| {axis} | odometry | " + " | ".join(systems) + " |",
+            "|---|---|" + "---|" * len(systems),
+        ]
+        for i, v in enumerate(odo[0]):
+            cells = []
+            for s in systems:
+                m = per[s][1][i]
+                cells.append(f"{m:.3f}" + ("*" if m > odo[1][i] else "") if math.isfinite(m) else "n/a")
+            lines.append(f"| {v:g} | {odo[1][i]:.3f} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return lines
+
+
 def plot_axis(rows: list[dict], axis: str, path: Path) -> Path:
     import matplotlib
 
@@ -228,7 +266,8 @@ def render(rows: list[dict], title: str, panels: list[str]) -> str:
         "",
         f"{len(runs)} runs ({len(failed)} failed) on {', '.join(worlds)}, "
         f"{len(seeds)} seeds, systems: {', '.join(systems)}. One run simulates its condition once and "
-        "runs every system on that stream. Map ATE: the experience map (RatSLAM) or the pose graph's "
+        "runs every system on that stream (a real log: its odometry, the labels synthesised under the "
+        "condition). Map ATE: the experience map (RatSLAM) or the pose graph's "
         "keyframes, SE(2)-aligned to ground truth.",
         "",
     ]
@@ -243,12 +282,19 @@ def render(rows: list[dict], title: str, panels: list[str]) -> str:
         ]
         lines += [f"| {s} | " + " | ".join(_fmt(bd[s].get(a)) for a in axes) + " |" for s in bd]
         lines.append("")
+    odometry = against_odometry(rows)
+    if odometry:
+        lines += [
+            "## Median map ATE against the odometry's (m; * = worse than the odometry)",
+            "",
+            *odometry,
+        ]
     if panels:
         lines += ["## Robustness curves", ""] + [f"![{p}]({p})" for p in panels] + [""]
     grid = [r for r in rows if r["varied"] == "grid" and not r["error"]]
     if grid:
         lines += ["## Median map ATE per condition (m)", ""]
-        axes = [a for a in AXES if len({r[a] for r in grid}) > 1]
+        axes = [a for a in row_axes(grid) if len({r[a] for r in grid}) > 1]
         lines += [
             "| " + " | ".join(axes) + " | " + " | ".join(systems) + " |",
             "|" + "---|" * (len(axes) + len(systems)),
@@ -281,7 +327,8 @@ def write_report_from_rows(out: Path, rows: list[dict], title: str) -> Path:
 def write_sweep_report(out: Path, tasks: list[dict]) -> Path:
     """``runs.csv`` from the run results, then the report."""
     rows = result_rows(tasks, out / "runs")
-    atomic_write_text(out / "runs.csv", csv_text(rows))
+    axes = tuple(tasks[0]["condition"]) if tasks else WORLD_AXES
+    atomic_write_text(out / "runs.csv", csv_text(rows, axes))
     return write_report_from_rows(out, read_runs_csv(out / "runs.csv"), out.name)
 
 

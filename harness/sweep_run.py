@@ -27,7 +27,7 @@ from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_json, read_text, write_json
 
 from .run_dir import OutputError, output_errors, remove_stale
-from .sweep_spec import AXES, SweepSpec, system_config
+from .sweep_spec import AXES, SweepSpec, system_config, system_fields
 from .sweep_task import run_one
 from .workers import pool, sigint_blocked, terminate, warm_kernels
 
@@ -50,6 +50,10 @@ _RESULT_SOURCES = (
     "harness/evaluate.py",
     "harness/runner.py",
     "harness/stream.py",
+    "harness/scale.py",
+    "harness/sweep_log.py",
+    "harness/camera_stream.py",
+    "harness/config_file.py",
 )
 
 
@@ -64,23 +68,38 @@ def code_version() -> str:
     return h.hexdigest()[:16]
 
 
+def _system_entry(spec: SweepSpec, system, condition: dict) -> dict:
+    """A system as a task carries it: its full configuration, or, for a real log, the preset and
+    fields that go on top of the configuration derived from the labelled log."""
+    entry = {"name": system.name, "kind": system.kind}
+    if spec.log is None:
+        return entry | {"config": dataclasses.asdict(system_config(system, condition))}
+    return entry | {"preset": system.preset, "fields": system_fields(system, condition)}
+
+
+def _base_entry(spec: SweepSpec) -> dict:
+    """What the stream of every run starts from: a world (maybe seen through a camera, with the
+    view matcher's settings) or a real log."""
+    if spec.log is not None:
+        return {"log": spec.log, "duration": spec.duration}
+    base: dict = {"world": spec.world, "duration": spec.duration, "lookalikes": spec.lookalikes}
+    if spec.camera is not None:
+        base |= {"camera": spec.camera, "view": dataclasses.asdict(spec.camera_view())}
+    return base
+
+
 def run_tasks(spec: SweepSpec, code: str) -> list[dict]:
     """The sweep's tasks, in a fixed order: everything a run depends on, JSON-ready."""
     tasks = []
     base = spec.base_values()
     for varied, seed in spec.runs():
         # the full condition: a value repeated on two axes' curves (e.g. the base) runs once
-        condition = {a: float(varied.get(a, base[a])) for a in AXES}
+        condition = {a: float(varied.get(a, base[a])) for a in spec.axis_names}
         task = {
-            "world": spec.world,
-            "duration": spec.duration,
-            "lookalikes": spec.lookalikes,
+            **_base_entry(spec),
             "condition": condition,
             "seed": seed,
-            "systems": [
-                {"name": s.name, "kind": s.kind, "config": dataclasses.asdict(system_config(s, condition))}
-                for s in spec.systems
-            ],
+            "systems": [_system_entry(spec, s, condition) for s in spec.systems],
             "code": code,
         }
         blob = json.dumps(task, sort_keys=True, allow_nan=True).encode()

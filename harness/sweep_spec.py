@@ -7,11 +7,16 @@ A spec is a TOML file::
 
     [base]
     world = "small_loop"          # a shipped world or a world file (relative to the spec), or
-    # figure = "fig7"             # a figure: its world, duration, false-positive rate and grid
-    duration = 600.0              # simulated seconds (default: the world's or figure's)
+    # figure = "fig7"             # a figure: its world, duration, false-positive rate and grid, or
+    # log = "plaza1"              # a real odometry log: "plaza1", "plaza2" or an observation log
+                                  # (CSV with ground truth, relative to the spec)
+    duration = 600.0              # simulated seconds (default: the world's or figure's; a log's
+                                  # start, default all of it)
     lookalikes = false            # the world's look-alike regions show their own scenes (default true)
+    # camera = "forward"          # both systems see the world through the simulated camera
+                                  # ("forward" or "panoramic") and the view matcher
 
-    [axes]                        # any of AXES, each a non-empty list of values
+    [axes]                        # any of the base's axes (WORLD_AXES, LOG_AXES or CAMERA_AXES)
     fp_rate = [0.0, 0.01, 0.02, 0.05]
     odometric_bias = [0.0, 1.5, 3.0]
 
@@ -35,6 +40,16 @@ A system's configuration fields are written as in a configuration file
 is refused. With a figure as the base, RatSLAM systems take the figure's pose-cell grid unless
 they set their own.
 
+A real log as the base (``log = ...``): its recorded odometry is replayed as it is and only the
+place labels vary; they are synthesised from the log's ground truth by the simulator's scene
+model (:func:`worlds.real_data.labelled_log`, the Plaza model :data:`~worlds.real_data.PLAZA_SCENES`
+at the base condition), the seed being the label seed (flicker and false positives). Each
+system's configuration is derived from the labelled log as ``replay`` derives it
+(:func:`harness.scale.derive_configs`, from the odometry and the labels, never the ground
+truth), its own fields in the spec going on top. A camera base renders every tick at its true
+pose and matches the images (:func:`harness.camera_stream.camera_observations`): the template
+numbers replace the scene numbers for both systems.
+
 Design "one-at-a-time" (default) varies each axis alone, the others at the base condition (the
 world's own value), which is what a robustness curve per axis needs; "grid" runs every
 combination. One run is one condition and one seed: it simulates once and runs every system on
@@ -44,12 +59,15 @@ that same stream. Every problem is one line naming the file, the key and the pro
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
+
+import numpy as np
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
@@ -83,8 +101,33 @@ AXES = {
         Axis("odometric_bias", -90.0, 90.0, "yaw-rate bias in the odometry seen by every system (deg/s)"),
         Axis("pi_bias", -90.0, 90.0, "yaw-rate bias in RatSLAM's pose-cell path integration only (deg/s)"),
         Axis("odometry_noise_scale", 0.0, 100.0, "factor on the world's odometry noise (speed and yaw rate)"),
+        Axis("cell_size", 0.1, 100.0, "side of the scene cells the place labels come from (m)"),
+        Axis("lighting_amplitude", 0.0, 1.0, "camera brightness gain 1 + amplitude sin(2 pi t / period)"),
+        Axis("image_noise", 0.0, 1.0, "std of the camera's Gaussian pixel noise (image values in [0, 1])"),
+        Axis("lookalikes", 0.0, 1.0, "the world's look-alike regions look alike (1) or show their own (0)"),
     )
 }
+WORLD_AXES: tuple[str, ...] = (
+    "fp_rate",
+    "alias_rate",
+    "blank_rate",
+    "odometric_bias",
+    "pi_bias",
+    "odometry_noise_scale",
+)
+"""The axes of a simulated world's sweep (its place labels and odometry), in runs.csv's order."""
+LOG_AXES: tuple[str, ...] = ("cell_size", "fp_rate", "alias_rate", "blank_rate", "pi_bias")
+"""The axes of a real log's sweep: the synthesised place labels (and RatSLAM's path integration)."""
+CAMERA_AXES: tuple[str, ...] = (
+    "lighting_amplitude",
+    "image_noise",
+    "lookalikes",
+    "odometric_bias",
+    "pi_bias",
+    "odometry_noise_scale",
+)
+"""The axes of a camera sweep: what the camera sees, and the odometry."""
+_WHOLE_VALUED = ("lookalikes",)  # 0 or 1
 
 
 class SweepSpecError(InputError):
@@ -98,6 +141,9 @@ class SystemSpec:
     name: str
     kind: str  # "ratslam" or "gtsam"
     config: RatSLAMConfig | PoseGraphConfig
+    preset: str | None = None  # RatSLAM's preset, if any ("published")
+    fields: dict = dataclasses.field(default_factory=dict)  # the fields the spec sets (a real log's
+    # configuration is derived from the log, these going on top, as ``replay --config`` does)
 
 
 @dataclass(frozen=True)
@@ -105,7 +151,7 @@ class SweepSpec:
     """A validated sweep: base condition, axes, seeds and systems."""
 
     path: str
-    world: str  # world name or file path, as load_world takes it
+    world: str | None  # world name or file path, as load_world takes it (None: a real log)
     duration: float
     base_fp_rate: float | None  # from a figure (None: the world's own)
     grid: tuple[int, int, int] | None  # RatSLAM grid from a figure (None: the default)
@@ -115,18 +161,50 @@ class SweepSpec:
     systems: tuple[SystemSpec, ...]
     max_runs: int
     lookalikes: bool = True  # False: the world's look-alike regions show their own scenes
+    log: str | None = None  # a real log: "plaza1", "plaza2" or an observation log file
+    camera: str | None = None  # "forward" or "panoramic": the systems see the camera's views
+
+    @property
+    def axis_names(self) -> tuple[str, ...]:
+        """The axes of this spec's base (every run has a value for each), in runs.csv's order."""
+        if self.log is not None:
+            return LOG_AXES
+        return CAMERA_AXES if self.camera is not None else WORLD_AXES
+
+    def camera_view(self):
+        """The view matcher's settings for the camera's stream (matched once for every system):
+        the RatSLAM systems' ``view`` fields (the defaults without one) for this camera."""
+        from .camera_stream import camera_view_config
+
+        views = [s.config.view for s in self.systems if isinstance(s.config, RatSLAMConfig)]
+        return camera_view_config(self.camera or "forward", views[0] if views else None)
 
     def base_values(self) -> dict:
-        """Each axis's value at the base condition (the world's own, or the figure's rate)."""
+        """Each axis's value at the base condition (the world's own, the figure's rate, or the
+        Plaza scene model for a real log)."""
+        if self.log is not None:
+            from worlds.real_data import PLAZA_SCENES as scenes
+
+            return {
+                "cell_size": scenes.cell_size,
+                "fp_rate": scenes.false_positive_rate,
+                "alias_rate": scenes.alias_rate,
+                "blank_rate": scenes.blank_rate,
+                "pi_bias": 0.0,
+            }
         world = load_world(self.world)
-        return {
+        values = {
             "fp_rate": world.scenes.false_positive_rate if self.base_fp_rate is None else self.base_fp_rate,
             "alias_rate": world.scenes.alias_rate,
             "blank_rate": world.scenes.blank_rate,
             "odometric_bias": world.odometry.bias_deg_s,
             "pi_bias": 0.0,
             "odometry_noise_scale": 1.0,
+            "lighting_amplitude": world.camera.lighting_amplitude,
+            "image_noise": world.camera.noise,
+            "lookalikes": float(self.lookalikes),
         }
+        return {a: values[a] for a in self.axis_names}
 
     def run_count(self) -> int:
         """How many runs :meth:`runs` gives, counted without expanding them."""
@@ -158,20 +236,54 @@ def _number(path, key: str, value) -> float:
     return float(value)
 
 
-def _read_base(path: Path, raw: dict):
+CAMERAS = ("forward", "panoramic")
+
+
+def _read_log(path: Path, value) -> tuple[str, float]:
+    """A real log's source ("plaza1", "plaza2" or a file relative to the spec) and its duration;
+    a log without ground truth cannot have labels synthesised."""
+    from worlds.real_data import PLAZA_SETS, RealDataError
+
+    from .sweep_log import read_base_log
+
+    if not isinstance(value, str) or not value:
+        _fail(path, "[base] log", f"expected plaza1, plaza2 or an observation log file, got {value!r}")
+    source = value if value.lower() in PLAZA_SETS else str(path.parent / value)
+    try:
+        log = read_base_log(source)
+    except (RealDataError, InputError, OSError) as e:
+        _fail(path, "[base] log", str(e))
+    return source, float(np.sum(log.dt))
+
+
+def _read_base(path: Path, raw: dict) -> dict:
     base = raw.get("base")
     if not isinstance(base, dict):
-        _fail(path, "[base]", "missing table (needs world = ... or figure = ...)")
-    unknown = set(base) - {"world", "figure", "duration", "lookalikes"}
+        _fail(path, "[base]", "missing table (needs world = ..., figure = ... or log = ...)")
+    unknown = set(base) - {"world", "figure", "log", "duration", "lookalikes", "camera"}
     if unknown:
-        _fail(path, f"[base] {sorted(unknown)[0]}", "unknown key (expected world, figure, duration, lookalikes)")
+        _fail(
+            path,
+            f"[base] {sorted(unknown)[0]}",
+            "unknown key (expected world, figure, log, duration, lookalikes, camera)",
+        )
     lookalikes = base.get("lookalikes", True)
     if not isinstance(lookalikes, bool):
         _fail(path, "[base] lookalikes", f"expected true or false, got {lookalikes!r}")
-    if ("world" in base) == ("figure" in base):
-        _fail(path, "[base]", "give exactly one of world = ... or figure = ...")
-    fp, grid, duration = None, None, None
-    if "figure" in base:
+    if sum(k in base for k in ("world", "figure", "log")) != 1:
+        _fail(path, "[base]", "give exactly one of world = ..., figure = ... or log = ...")
+    camera = base.get("camera")
+    if camera is not None and camera not in CAMERAS:
+        _fail(path, "[base] camera", f"expected one of {', '.join(CAMERAS)}, got {camera!r}")
+    fp, grid, duration, log = None, None, None, None
+    if "log" in base:
+        if camera is not None:
+            _fail(path, "[base] camera", "a real log has no simulated world to render")
+        if "lookalikes" in base:
+            _fail(path, "[base] lookalikes", "a real log has no look-alike regions (its labels: the scene model)")
+        log, log_duration = _read_log(path, base["log"])
+        world = None
+    elif "figure" in base:
         from .figures import get_figure
 
         try:
@@ -179,7 +291,7 @@ def _read_base(path: Path, raw: dict):
         except ValueError as e:
             _fail(path, "[base] figure", str(e))
         if fig.world is None:
-            _fail(path, "[base] figure", f"{fig.name} replays a real log; a sweep needs a simulated world")
+            _fail(path, "[base] figure", f"{fig.name} replays a real log: write log = {fig.real_log!r} instead")
         world, fp, grid, duration = fig.world, fig.fp_rate, fig.grid, fig.duration
     else:
         world = base["world"]
@@ -188,26 +300,39 @@ def _read_base(path: Path, raw: dict):
         candidate = path.parent / world
         if world.endswith(".toml") and candidate.is_file():
             world = str(candidate)
-    try:
-        loaded = load_world(world)
-    except (ValueError, OSError) as e:
-        _fail(path, "[base] world", str(e))
+    if world is not None:
+        try:
+            loaded = load_world(world)
+        except (ValueError, OSError) as e:
+            _fail(path, "[base] world", str(e))
     if "duration" in base:
         duration = _number(path, "[base] duration", base["duration"])
         if duration <= 0:
             _fail(path, "[base] duration", f"must be positive, got {duration!r}")
-    return world, duration if duration is not None else loaded.duration, fp, grid, lookalikes
+    if duration is None:
+        duration = log_duration if log is not None else loaded.duration
+    return {
+        "world": world,
+        "log": log,
+        "camera": camera,
+        "duration": duration,
+        "fp": fp,
+        "grid": grid,
+        "lookalikes": lookalikes,
+    }
 
 
-def _read_axes(path: Path, raw: dict) -> dict:
+def _read_axes(path: Path, raw: dict, names: tuple[str, ...], base: str) -> dict:
     axes = raw.get("axes")
     if not isinstance(axes, dict) or not axes:
-        _fail(path, "[axes]", f"missing or empty (vary at least one of {', '.join(AXES)})")
+        _fail(path, "[axes]", f"missing or empty (vary at least one of {', '.join(names)})")
     out = {}
     for name, values in axes.items():
         key = f"[axes] {name}"
         if name not in AXES:
             _fail(path, key, f"unknown axis (known: {', '.join(AXES)})")
+        if name not in names:
+            _fail(path, key, f"not an axis of {base} (its axes: {', '.join(names)})")
         if not isinstance(values, list) or not values:
             _fail(path, key, "expected a non-empty list of values")
         axis = AXES[name]
@@ -216,6 +341,8 @@ def _read_axes(path: Path, raw: dict) -> dict:
             v = _number(path, key, v)
             if not axis.low <= v <= axis.high:
                 _fail(path, key, f"value {v!r} out of range [{axis.low:g}, {axis.high:g}] ({axis.meaning})")
+            if name in _WHOLE_VALUED and v not in (0.0, 1.0):
+                _fail(path, key, f"value {v!r}: expected 0 or 1 ({axis.meaning})")
             checked.append(v)
         if len(set(checked)) != len(checked):
             _fail(path, key, "values repeat")
@@ -268,7 +395,7 @@ def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
             config = replace(config, fields)
         except ConfigError as e:
             raise SweepSpecError(f"{path}: {where(f'systems.{name}', e)}") from None
-        out.append(SystemSpec(name, kind, config))
+        out.append(SystemSpec(name, kind, config, preset, fields))
     return tuple(out)
 
 
@@ -289,24 +416,42 @@ def read_sweep_spec(path) -> SweepSpec:
     max_runs = raw.get("max_runs", DEFAULT_MAX_RUNS)
     if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < 1:
         _fail(path, "max_runs", f"expected an integer >= 1, got {max_runs!r}")
-    world, duration, fp, grid, lookalikes = _read_base(path, raw)
-    axes = _read_axes(path, raw)
+    base = _read_base(path, raw)
+    if base["log"] is not None:
+        names, what = LOG_AXES, "a real log"
+    elif base["camera"] is not None:
+        names, what = CAMERA_AXES, "a camera's stream"
+    else:
+        names, what = WORLD_AXES, "a simulated world"
+    axes = _read_axes(path, raw, names, what)
     seeds = _read_seeds(path, raw)
-    systems = _read_systems(path, raw, grid)
+    systems = _read_systems(path, raw, base["grid"])
+    if base["camera"] is not None:
+        views = {s.name: s.config.view for s in systems if isinstance(s.config, RatSLAMConfig)}
+        for name, view in views.items():
+            if view != next(iter(views.values())):
+                _fail(
+                    path,
+                    f"[systems.{name}] view",
+                    "the camera's views are matched once for every system: "
+                    "give every RatSLAM system the same view fields",
+                )
     if "pi_bias" in axes and not any(s.kind == "ratslam" for s in systems):
         _fail(path, "[axes] pi_bias", "varies RatSLAM's path integration, but no RatSLAM system is configured")
     spec = SweepSpec(
         path=str(path),
-        world=world,
-        duration=duration,
-        base_fp_rate=fp,
-        grid=grid,
+        world=base["world"],
+        duration=base["duration"],
+        base_fp_rate=base["fp"],
+        grid=base["grid"],
         design=design,
         axes=axes,
         seeds=seeds,
         systems=systems,
         max_runs=max_runs,
-        lookalikes=lookalikes,
+        lookalikes=base["lookalikes"],
+        log=base["log"],
+        camera=base["camera"],
     )
     if not spec.run_count():
         _fail(path, "[axes]", "the spec expands to zero runs")
@@ -318,14 +463,35 @@ def check_sweep_size(spec: SweepSpec, yes: bool = False) -> None:
     (:mod:`harness.budget`), before anything runs (``yes``: go ahead anyway)."""
     from .budget import check_grid, check_ticks
 
-    check_ticks(f"{spec.path}: [base] duration", spec.duration * load_world(spec.world).tick_rate, yes)
+    if spec.log is not None:
+        from .sweep_log import read_base_log
+
+        check_ticks(f"{spec.path}: [base] log", len(read_base_log(spec.log, spec.duration)), yes)
+    else:
+        check_ticks(f"{spec.path}: [base] duration", spec.duration * load_world(spec.world).tick_rate, yes)
     for system in spec.systems:
         if isinstance(system.config, RatSLAMConfig):
             check_grid(f"{spec.path}: [systems.{system.name}]", system.config.shape, yes)
 
 
-def system_config(system: SystemSpec, condition: dict):
-    """The system's configuration under ``condition`` (the path-integration bias goes to RatSLAM)."""
+def condition_fields(system: SystemSpec, condition: dict) -> dict:
+    """The configuration fields ``condition`` sets on the system (the path-integration bias goes
+    to RatSLAM); empty for the others."""
     if system.kind == "ratslam" and "pi_bias" in condition:
-        return replace(system.config, {"pose_cells": {"path_integration_bias_deg_s": float(condition["pi_bias"])}})
-    return system.config
+        return {"pose_cells": {"path_integration_bias_deg_s": float(condition["pi_bias"])}}
+    return {}
+
+
+def system_config(system: SystemSpec, condition: dict):
+    """The system's configuration under ``condition`` (:func:`condition_fields` on the spec's)."""
+    fields = condition_fields(system, condition)
+    return replace(system.config, fields) if fields else system.config
+
+
+def system_fields(system: SystemSpec, condition: dict) -> dict:
+    """The fields the spec and ``condition`` set on the system: what goes on top of a
+    configuration derived from a real log (:func:`condition_fields` over the spec's)."""
+    fields = {k: dict(v) if isinstance(v, dict) else v for k, v in system.fields.items()}
+    for key, value in condition_fields(system, condition).items():
+        fields[key] = {**fields.get(key, {}), **value}
+    return fields

@@ -21,31 +21,102 @@ import numpy as np
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from ratslam import RatSLAM, RatSLAMConfig
-from slamkit.config_fields import from_dict
-from worlds import load_world, simulate
+from slamkit.config_fields import from_dict, replace
+from worlds import ObservationLog, World, load_world, simulate
+from worlds.world import CameraSpec, OdometrySpec, SceneSpec
 
 from . import metrics
+from .config_file import with_preset
 from .evaluate import CLOSURE_TRUE_DISTANCE, closure_quality
 from .runner import dead_reckon
+from .scale import derive_configs
 from .stream import Trace, step_stream
 
 
-def condition_world(world_name: str, condition: dict, lookalikes: bool = True):
-    """The world with the condition's scene and odometry values (and the simulate() arguments);
-    ``condition`` has a value for every axis; ``lookalikes`` False gives the world's look-alike
-    regions their own scenes."""
-    world = load_world(world_name)
-    scenes, odo = world.scenes, world.odometry
-    scenes = dataclasses.replace(
+def condition_scenes(scenes: SceneSpec, condition: dict) -> SceneSpec:
+    """The scene model with the condition's place-label values (cell size, aliasing, blank cells,
+    false positives); an axis the condition lacks keeps the model's value."""
+    return dataclasses.replace(
         scenes,
+        cell_size=condition.get("cell_size", scenes.cell_size),
         alias_rate=condition.get("alias_rate", scenes.alias_rate),
         blank_rate=condition.get("blank_rate", scenes.blank_rate),
-        lookalikes=scenes.lookalikes if lookalikes else (),
+        false_positive_rate=condition.get("fp_rate", scenes.false_positive_rate),
     )
+
+
+def condition_odometry(odometry: OdometrySpec, condition: dict) -> OdometrySpec:
+    """The simulated odometry with the condition's yaw-rate bias and noise factor."""
     scale = condition.get("odometry_noise_scale", 1.0)
-    odo = dataclasses.replace(odo, noise_trans=odo.noise_trans * scale, noise_rot=odo.noise_rot * scale)
-    world = dataclasses.replace(world, scenes=scenes, odometry=odo)
-    return world, {"bias_deg_s": condition["odometric_bias"], "fp_rate": condition["fp_rate"]}
+    return dataclasses.replace(
+        odometry,
+        bias_deg_s=condition.get("odometric_bias", odometry.bias_deg_s),
+        noise_trans=odometry.noise_trans * scale,
+        noise_rot=odometry.noise_rot * scale,
+    )
+
+
+def condition_camera(camera: CameraSpec, condition: dict) -> CameraSpec:
+    """The camera with the condition's lighting change and sensor noise."""
+    return dataclasses.replace(
+        camera,
+        lighting_amplitude=condition.get("lighting_amplitude", camera.lighting_amplitude),
+        noise=condition.get("image_noise", camera.noise),
+    )
+
+
+def condition_world(world_name: str, condition: dict, lookalikes: bool = True) -> World:
+    """The world under ``condition`` (scenes, odometry, camera); ``lookalikes`` False (or the
+    condition's ``lookalikes`` 0) gives the world's look-alike regions their own scenes and walls."""
+    world = load_world(world_name)
+    scenes = condition_scenes(world.scenes, condition)
+    camera = condition_camera(world.camera, condition)
+    if not bool(condition.get("lookalikes", lookalikes)):
+        scenes = dataclasses.replace(scenes, lookalikes=())
+        if camera.same_as:
+            camera = dataclasses.replace(camera, same_as=())
+    odometry = condition_odometry(world.odometry, condition)
+    return dataclasses.replace(world, scenes=scenes, odometry=odometry, camera=camera)
+
+
+def condition_log(task: dict) -> ObservationLog:
+    """The task's stream: simulated in its world (seen through its camera, if any), or the real
+    log's odometry with place labels synthesised under the condition (the seed: the labels')."""
+    condition, seed = task["condition"], task["seed"]
+    if "log" in task:
+        from worlds.real_data import PLAZA_SCENES
+
+        from .sweep_log import read_base_log, relabelled
+
+        base = read_base_log(task["log"], task["duration"])
+        return relabelled(base, condition_scenes(PLAZA_SCENES, condition), seed)
+    world = condition_world(task["world"], condition, task.get("lookalikes", True))
+    log = simulate(world, duration=task["duration"], seed=seed)
+    if task.get("camera") is not None:
+        from ratslam import ViewConfig
+
+        from .camera_stream import camera_observations
+
+        log = camera_observations(world, log, task["camera"], seed, from_dict(ViewConfig, task["view"]))
+    return log
+
+
+def system_configs(task: dict, log: ObservationLog) -> dict[str, RatSLAM | PoseGraphSLAM]:
+    """The task's systems, built: with their configurations as given, or, for a real log, derived
+    from the labelled log as ``replay`` derives them (no ground truth), a RatSLAM preset applied
+    to the derived configuration (as ``replay --ratslam published``) and the spec's fields on top."""
+    out: dict[str, RatSLAM | PoseGraphSLAM] = {}
+    derived = None
+    for s in task["systems"]:
+        if "fields" not in s:
+            out[s["name"]] = _build(s["kind"], s["config"])
+            continue
+        derived = derived or derive_configs(log)
+        if s["kind"] == "ratslam":
+            out[s["name"]] = RatSLAM(replace(with_preset(derived[0], s.get("preset")), s["fields"]))
+        else:
+            out[s["name"]] = PoseGraphSLAM(replace(derived[1], s["fields"]))
+    return out
 
 
 def _ate(est, gt) -> float:
@@ -87,10 +158,9 @@ def run_one(task: dict) -> dict:
     failure is returned as a one-line ``error`` (the sweep records it and goes on)."""
     start = time.perf_counter()
     try:
-        world, sim_args = condition_world(task["world"], task["condition"], task.get("lookalikes", True))
-        log = simulate(world, duration=task["duration"], seed=task["seed"], **sim_args)
+        log = condition_log(task)
         gt = log.ground_truth()
-        traces, _ = step_stream(log, {s["name"]: _build(s["kind"], s["config"]) for s in task["systems"]})
+        traces, _ = step_stream(log, system_configs(task, log))
         systems = {s["name"]: {"kind": s["kind"], **_measure(traces[s["name"]], gt)} for s in task["systems"]}
         result = {"ate_odometry": _ate(dead_reckon(log), gt), "ticks": len(log), "systems": systems, "error": None}
     except Exception as e:
