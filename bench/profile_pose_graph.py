@@ -13,6 +13,10 @@ labels only), and prints one JSON line: CPU seconds per quarter and in all, keyf
 proposed and accepted, the iSAM2 updates (with closures, early flushes), the variables they
 re-eliminated and relinearised, the recoveries, and the keyframe ATE of the online estimate
 (SE(2)-aligned, ground truth read here only).
+
+``--drop-wrong-closures D`` is a diagnostic that reads the ground truth: closure candidates more
+than ``D`` metres from the new keyframe in truth (wrong matches) are never proposed, to measure
+what the wrong ones cost.
 """
 
 from __future__ import annotations
@@ -83,6 +87,29 @@ class _CountingISAM2:
 
     def __getattr__(self, name):
         return getattr(self._isam, name)
+
+
+def _drop_wrong_closures(log: ObservationLog, distance: float) -> None:
+    """Diagnostic: the pose graphs made from now on never propose a closure between keyframes more
+    than ``distance`` metres apart in truth."""
+    truth = np.asarray(log.ground_truth())[:, :2]
+    proposing: list[PoseGraphSLAM] = []
+
+    class TrueIndex(pose_graph.SceneIndex):
+        def candidates(self, *args):
+            slam = proposing[-1]
+            here = truth[slam.tick - 1]
+            found = super().candidates(*args)
+            return [i for i in found if np.hypot(*(truth[slam.keyframe_ticks[i]] - here)) <= distance]
+
+    init = PoseGraphSLAM.__init__
+
+    def remembered_init(self, *args, **kwargs):
+        proposing.append(self)
+        init(self, *args, **kwargs)
+
+    pose_graph.SceneIndex = TrueIndex  # type: ignore[misc]
+    PoseGraphSLAM.__init__ = remembered_init  # type: ignore[method-assign]
 
 
 def time_stream(log: ObservationLog, config: PoseGraphConfig, ticks: int, profile: str | None) -> dict:
@@ -160,11 +187,14 @@ def main() -> None:
     p.add_argument("--camera", help="the log is a camera stream of this kind")
     p.add_argument("--ticks", type=int, default=10**12)
     p.add_argument("--profile", help="write cProfile statistics here")
+    p.add_argument("--drop-wrong-closures", type=float, metavar="D", help="diagnostic, reads ground truth")
     args = parser.parse_args()
     if args.command == "stream":
         build_stream(args.figure, args.out, args.camera)
     else:
         log = ObservationLog.read_csv(args.log)
+        if args.drop_wrong_closures is not None:
+            _drop_wrong_closures(log, args.drop_wrong_closures)
         print(json.dumps(time_stream(log, figure_config(args.figure, log, args.camera), args.ticks, args.profile)))
 
 
