@@ -265,11 +265,18 @@ def derive_configs(
             k_v = k_v if lo <= k_v <= hi else revisits.k_v
             lo, hi = revisits.support_w
             k_w = k_w if lo <= k_w <= hi else revisits.k_w
+            if revisits.k_closure > 1.0:
+                # The revisits scatter more than one scene cell: closures (and the bias search's
+                # revisits) get the measured scatter.
+                k_c = revisits.k_closure
+                pg_new = pg_new.replace(closures={"sigma_xy_m": closures.sigma_xy_m * k_c})
+                rs_new = rs_new.replace(yaw_bias={"revisit_sigma_xy_m": rs_new.yaw_bias.revisit_sigma_xy_m * k_c})
             revisit_text = (
                 f" Revisits ({revisits.pairs} scene-onset pairs, {revisits.inlier_fraction:.0%} inliers): "
                 f"most likely noise x{revisits.k_v:g} (x{revisits.support_v[0]:g}-x{revisits.support_v[1]:g}), "
                 f"x{revisits.k_w:g} (x{revisits.support_w[0]:g}-x{revisits.support_w[1]:g}), onset scatter "
-                f"x{revisits.k_closure:g} of closures.sigma_xy_m; used x{k_v:g}, x{k_w:g}."
+                f"x{revisits.k_closure:g} of closures.sigma_xy_m; "
+                f"used x{k_v:g}, x{k_w:g}, x{max(1.0, revisits.k_closure):g}."
             )
         odo = pg.odometry
         pg_new = pg_new.replace(

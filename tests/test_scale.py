@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from baselines import PoseGraphConfig
-from harness.scale import derive_configs, ladder, measure_log, revisit_noise, trans_gain
+from harness import scale
+from harness.scale import RevisitNoise, derive_configs, ladder, measure_log, revisit_noise, trans_gain
 from ratslam import RatSLAMConfig, YawBiasConfig
 from worlds import ObservationLog, simulate
 
@@ -173,3 +174,22 @@ def test_one_encoder_spike_does_not_rescale_the_log(n, tolerance):
     spiked = measure_log(log)
     assert spiked.step == pytest.approx(clean.step, rel=0.01)
     assert spiked.label_length == pytest.approx(clean.label_length, rel=tolerance)
+
+
+@pytest.mark.parametrize("k_closure", [0.5, 1.0, 2.0**0.5, 2.0])
+def test_revisits_scattered_beyond_one_cell_widen_the_closure_sigma(monkeypatch, k_closure):
+    """Claim: the pose graph's and RatSLAM's derived defaults are never worse than the odometry
+    at the median of a Plaza label condition. With cells wider than Plaza 1's lane spacing a
+    closure may join neighbouring lanes, and the revisits scatter more than one cell (Plaza 1:
+    x1.41): closures, re-entries and the bias search take that scatter; a scatter within one
+    cell leaves the label's sigma (docs/sweeps.md, docs/derived-configurations.md)."""
+    log = _revisiting_drive(heading_drift=0.0, along_noise=0.1, n=1500)
+    cell_sigma = ladder(measure_log(log).label_length / 0.9) / np.sqrt(6.0)
+    revisits = RevisitNoise(200, 1.0, 1.0, k_closure, 0.9, (0.5, 2.0), (0.5, 2.0))
+    monkeypatch.setattr(scale, "revisit_noise", lambda *args, **kwargs: revisits)
+    rs, pg, text = derive_configs(log)
+    widened = cell_sigma * max(1.0, k_closure)
+    assert pg.closures.sigma_xy_m == pytest.approx(widened)
+    assert rs.reentry.position_sigma_m == pytest.approx(widened)
+    assert rs.yaw_bias.revisit_sigma_xy_m == pytest.approx(widened)
+    assert f"x{max(1.0, k_closure):g}." in text
