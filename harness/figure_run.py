@@ -358,23 +358,11 @@ def _run_variant(
     )
 
 
-def _variant_job(args) -> VariantRun:
-    """One variant in a worker process (progress as plain lines: several bars would clash)."""
-    run_dir, fig_name, variant, world, duration, seed, show_progress, recorder_factory, config, ratslam, camera = args
-    return _run_variant(
-        run_dir,
-        get_figure(fig_name),
-        variant,
-        world,
-        duration,
-        seed,
-        show_progress,
-        recorder_factory,
-        config,
-        redraw=False,
-        ratslam=ratslam,
-        camera=camera,
-    )
+def _variant_job(job: tuple[str, Path, Variant, dict[str, Any]]) -> VariantRun:
+    """One variant's run from its job: the figure by name (its claims are closures, which do not
+    pickle), the variant's directory, the variant, and :func:`_run_variant`'s other arguments."""
+    fig_name, run_dir, variant, kwargs = job
+    return _run_variant(run_dir, get_figure(fig_name), variant, **kwargs)
 
 
 def default_workers(n_jobs: int) -> int:
@@ -424,46 +412,28 @@ def run_figure(
     out = Path(out) if out else RUNS_DIR / (fig.name if camera is None else f"{fig.name}_{camera}")
     workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
     with staged_directory(out, _inputs(config)) as stage:
+        parallel = workers > 1 and len(fig.variants) > 1
+        shared = dict(
+            world=world,
+            duration=duration,
+            seed=seed,
+            show_progress=show_progress,
+            recorder_factory=recorder_factory,
+            config=config,
+            ratslam=ratslam,
+            camera=camera,
+            redraw=False if parallel else None,  # several bars in parallel workers would clash
+        )
         jobs = []
         for i, variant in enumerate(fig.variants):
             vdir = stage if i == 0 else stage / "variants" / variant.name
             vdir.mkdir(parents=True, exist_ok=True)
-            jobs.append(
-                (
-                    vdir,
-                    fig.name,
-                    variant,
-                    world,
-                    duration,
-                    seed,
-                    show_progress,
-                    recorder_factory,
-                    config,
-                    ratslam,
-                    camera,
-                )
-            )
-        if workers > 1 and len(jobs) > 1:
-            # the figure travels by name: its claims are closures, which do not pickle
+            jobs.append((fig.name, vdir, variant, shared))
+        if parallel:
             warm_kernels()  # compiled once here, inherited by the forked workers
             runs = map_in_processes(_variant_job, jobs, min(workers, len(jobs)), fork_context())
         else:
-            runs = [
-                _run_variant(
-                    vdir,
-                    fig,
-                    variant,
-                    world,
-                    duration,
-                    seed,
-                    show_progress,
-                    recorder_factory,
-                    config,
-                    ratslam=ratslam,
-                    camera=camera,
-                )
-                for vdir, _, variant, *_ in jobs
-            ]
+            runs = [_variant_job(job) for job in jobs]
         primary = runs[0]
         run = RunResult(
             figure=FigureInfo(
