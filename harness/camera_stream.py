@@ -213,14 +213,15 @@ MAX_TEMPLATE_HEIGHT = 16
 """The most template rows derived from an image's aspect."""
 
 
-def derived_template_size(columns: int, rows: int, panoramic: bool) -> tuple[int, int]:
-    """The template (columns, rows) for a cropped image of ``columns`` x ``rows``: half the image's
-    columns, at most :data:`FORWARD_TEMPLATE_WIDTH` (forward) or :data:`PANORAMIC_TEMPLATE_WIDTH`
-    (panoramic), and rows in the image's aspect, between 1 and :data:`MAX_TEMPLATE_HEIGHT` (and
-    at most the image's rows). The simulator's 64x16 forward and 128x16 panoramic images get the
-    defaults, 32x8 and 64x8."""
-    cap = PANORAMIC_TEMPLATE_WIDTH if panoramic else FORWARD_TEMPLATE_WIDTH
-    width = max(2, min(columns // 2, cap))
+def derived_template_size(columns: int, rows: int, panoramic: bool, width: int | None = None) -> tuple[int, int]:
+    """The template (columns, rows) for a cropped image of ``columns`` x ``rows``: ``width`` if
+    given, else half the image's columns, at most :data:`FORWARD_TEMPLATE_WIDTH` (forward) or
+    :data:`PANORAMIC_TEMPLATE_WIDTH` (panoramic); and rows in the image's aspect, between 1 and
+    :data:`MAX_TEMPLATE_HEIGHT` (and at most the image's rows). The simulator's 64x16 forward and
+    128x16 panoramic images get the defaults, 32x8 and 64x8."""
+    if width is None:
+        cap = PANORAMIC_TEMPLATE_WIDTH if panoramic else FORWARD_TEMPLATE_WIDTH
+        width = max(2, min(columns // 2, cap))
     height = max(1, min(round(width * rows / columns), MAX_TEMPLATE_HEIGHT, rows))
     return width, height
 
@@ -318,22 +319,20 @@ def log_camera_view(
         fov = described.field_of_view_deg
         said.append(f"field of view {fov:g} deg from {Path(log.image[0]).parent / CAMERA_FILE}")
     view = dataclasses.replace(view, field_of_view_deg=fov)
+    where = f"{log_path}: line 2, column image: {log.image[0]}"
+    size = image_size(Path(log_path).parent / log.image[0], where)
     if not {"template_width", "template_height"} <= set(given):
-        where = f"{log_path}: line 2, column image: {log.image[0]}"
-        columns, rows = image_size(Path(log_path).parent / log.image[0], where)
+        columns, rows = size
         cropped = (columns - view.crop_left - view.crop_right, rows - view.crop_top - view.crop_bottom)
         if min(cropped) < 1:
             raise ObservationLogError(f"{where}: {columns}x{rows} pixels, nothing left after view.crop_*")
-        width, height = derived_template_size(*cropped, view.panoramic)
-        if "template_width" in given:
-            width = view.template_width
-            height = max(1, min(round(width * cropped[1] / cropped[0]), MAX_TEMPLATE_HEIGHT, cropped[1]))
-        elif "template_height" in given:
+        given_width = view.template_width if "template_width" in given else None
+        width, height = derived_template_size(*cropped, view.panoramic, given_width)
+        if "template_height" in given:
             height = view.template_height
         view = dataclasses.replace(view, template_width=width, template_height=height)
         said.append(f"template {width}x{height} from the {cropped[0]}x{cropped[1]} (cropped) images")
     if "match_threshold" not in given:
-        size = image_size(Path(log_path).parent / log.image[0], f"{log_path}: line 2, column image: {log.image[0]}")
         draft_to = _draft_to(view)
         names = log.image
 
