@@ -10,7 +10,7 @@ conditions vary. The systems see the odometry and the labels, never the ground t
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 
 import numpy as np
 
@@ -19,9 +19,11 @@ from worlds.real_data import PLAZA_SETS, RealDataError, labelled_log, load_plaza
 from worlds.world import SceneSpec
 
 
+@functools.lru_cache(maxsize=4)
 def read_base_log(source: str, duration: float | None = None) -> ObservationLog:
     """The log ``source`` (a Plaza set's name or an observation log file), its first ``duration``
-    seconds (None: all); one-line error if it cannot be read or has no ground truth."""
+    seconds (None: all), read once per process (a sweep's runs share it; never modified: each run
+    relabels a copy); one-line error if it cannot be read or has no ground truth."""
     if source.lower() in PLAZA_SETS:
         return load_plaza(source, duration=duration)
     log = ObservationLog.read_csv(source)
@@ -33,9 +35,7 @@ def read_base_log(source: str, duration: float | None = None) -> ObservationLog:
         keep = np.cumsum(log.dt) <= duration + 1e-9
         if keep.sum() < 2:
             raise RealDataError(f"{source}: duration {duration:g} s keeps {int(keep.sum())} ticks; 2 are needed")
-        n = int(keep.sum())
-        columns = {f.name: getattr(log, f.name) for f in dataclasses.fields(log)}
-        log = dataclasses.replace(log, **{k: v[:n] for k, v in columns.items() if v is not None})
+        log = log.ticks(0, int(keep.sum()))
     return log
 
 

@@ -14,7 +14,6 @@ some tick uses and holding each only until its last tick has had it.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import TypeVar
@@ -46,14 +45,7 @@ class TickPairing:
 
     def kept(self, odometry: ObservationLog) -> ObservationLog:
         """The ticks ``first:end`` of ``odometry`` (one row a tick of the pairing), every column."""
-        return dataclasses.replace(
-            odometry,
-            **{
-                f.name: value[self.first : self.end]
-                for f in dataclasses.fields(odometry)
-                if (value := getattr(odometry, f.name)) is not None
-            },
-        )
+        return odometry.ticks(self.first, self.end)
 
 
 def pair_ticks(image_t: np.ndarray, tick_t: np.ndarray, dt: np.ndarray, slack: float = 1e-6) -> TickPairing:

@@ -15,6 +15,7 @@ file, the line, the column and what is wrong (:class:`ObservationLogError`). Wri
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import re
 from dataclasses import dataclass
@@ -80,6 +81,13 @@ class ObservationLog:
     @property
     def has_ground_truth(self) -> bool:
         return self.gt_x is not None
+
+    def ticks(self, start: int, stop: int) -> ObservationLog:
+        """The ticks ``start:stop``, every column the log has."""
+        return dataclasses.replace(
+            self,
+            **{f.name: v[start:stop] for f in dataclasses.fields(self) if (v := getattr(self, f.name)) is not None},
+        )
 
     def ground_truth(self) -> np.ndarray:
         """Ground-truth poses (N, 3): x, y, theta. Raises if the log has none."""
