@@ -256,26 +256,27 @@ class PoseCells:
         cfg = self.config.pose_cells
         if len(self._boxes) > 1:
             self._merge_interacting()
-        n = self._n
-        r = cfg.excite_radius_cells
         te, ti = self._taps_exc, self._taps_inh
+        network = (  # the attractor's operands after (activity, start), as the kernels take them
+            self._n,
+            te[0],
+            te[1],
+            te[2],
+            ti[0],
+            ti[1],
+            ti[2],
+            self._off_spread,
+            self._off_within,
+            cfg.excite_radius_cells,
+            cfg.inhibit_weight,
+            cfg.global_inhibition,
+        )
         if len(self._boxes) == 1:  # the usual case: the steps below in one compiled call
             start, act = self._boxes[0]
             alive, start, act, peak = pose_cell_split.step_one_box(
                 act,
                 start,
-                n,
-                te[0],
-                te[1],
-                te[2],
-                ti[0],
-                ti[1],
-                ti[2],
-                self._off_spread,
-                self._off_within,
-                r,
-                cfg.inhibit_weight,
-                cfg.global_inhibition,
+                *network,
                 self._cos,
                 self._sin,
                 v_trans_dt * cfg.trans_gain / cfg.cell_size_m,
@@ -292,22 +293,7 @@ class PoseCells:
         for start, act in self._boxes:
             # 1. local excitation (the box grows by the excitation radius), 2. local inhibition
             # within that box, 3. global inhibition and non-negativity, then crop
-            start, act, mass = pose_cell_split.network_box(
-                act,
-                start,
-                n,
-                te[0],
-                te[1],
-                te[2],
-                ti[0],
-                ti[1],
-                ti[2],
-                self._off_spread,
-                self._off_within,
-                r,
-                cfg.inhibit_weight,
-                cfg.global_inhibition,
-            )
+            start, act, mass = pose_cell_split.network_box(act, start, *network)
             if act.size:
                 total += mass
                 new_boxes.append([start, act])
