@@ -32,7 +32,7 @@ import numpy as np
 from baselines import PoseGraphConfig
 from harness.camera_stream import camera_configs, camera_observations, camera_view_config
 from harness.evaluate import evaluate_stream
-from harness.figure_run import _configs, _variant_log, _variant_world
+from harness.figure_streams import variant_configs, variant_log, variant_world
 from harness.figures import get_figure
 from harness.runner import run_stream
 from harness.scale import REFERENCE_LABEL_LENGTH_M, REFERENCE_STEP_M, measure_log
@@ -147,9 +147,9 @@ def main() -> None:
         for variant in fig.variants:
             if args.variants and variant.name not in args.variants:
                 continue
-            world = _variant_world(world0, variant)
-            log = _variant_log(fig, variant, world, args.duration or fig.duration, fig.seed)
-            base_rs, _, _ = _configs(fig, variant, log)
+            world = variant_world(world0, variant)
+            log = variant_log(fig, variant, world, args.duration or fig.duration, fig.seed)
+            base_rs, _, _ = variant_configs(fig, variant, log)
             st = label_stats(log)
             print(f"\n## {name} {variant.name}: scene numbers {st}", flush=True)
             for kind in args.camera:

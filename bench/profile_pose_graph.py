@@ -36,7 +36,7 @@ import numpy as np
 import baselines.optimizers as optimizers
 import baselines.pose_graph as pose_graph
 from baselines import PoseGraphConfig, PoseGraphSLAM
-from harness import figure_run
+from harness import figure_streams
 from harness.figures import FIGURES
 from worlds import ObservationLog, load_world
 
@@ -45,12 +45,12 @@ def _figure(name: str):
     fig = FIGURES[name]
     world = load_world(fig.world) if fig.world is not None else None
     variant = fig.variants[0]
-    return fig, variant, figure_run._variant_world(world, variant)
+    return fig, variant, figure_streams.variant_world(world, variant)
 
 
 def build_stream(name: str, out: str, camera: str | None) -> None:
     fig, variant, world = _figure(name)
-    log = figure_run._variant_log(fig, variant, world, None, fig.seed)
+    log = figure_streams.variant_log(fig, variant, world, None, fig.seed)
     if camera is not None:
         from harness.camera_stream import camera_view_config, camera_views
 
@@ -60,7 +60,7 @@ def build_stream(name: str, out: str, camera: str | None) -> None:
 
 def figure_config(name: str, log: ObservationLog, camera: str | None) -> PoseGraphConfig:
     fig, variant, _ = _figure(name)
-    rs, pg, _ = figure_run._configs(fig, variant, log)
+    rs, pg, _ = figure_streams.variant_configs(fig, variant, log)
     if camera is not None:
         from harness.camera_stream import camera_configs, camera_view_config
 

@@ -20,7 +20,7 @@ from .log_output import check_writable
 from .run_dir import output_errors
 
 if typing.TYPE_CHECKING:
-    from .figure_run import RatSLAMChoice
+    from .stream_run import RatSLAMChoice
 
 
 class CliError(InputError):

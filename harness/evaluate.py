@@ -13,7 +13,7 @@ from worlds import ObservationLog
 
 from . import metrics
 from .results import LoopClosureQuality, PerTrajectory, RelativeError, Rpe, Timing, VariantResult
-from .runner import StreamResult
+from .runner import PoseGraphMap, StreamResult
 
 CLOSURE_TRUE_DISTANCE = 1.5  # m: a loop closure is true if its keyframes were this close in truth
 # (for 1 m scene cells: two places in one cell are at most its diagonal, 1.41 m, apart)
@@ -107,7 +107,7 @@ def evaluate_stream(
     )
 
 
-def closure_quality(pg: PoseGraphSLAM, gt: np.ndarray, true_distance: float) -> LoopClosureQuality:
+def closure_quality(pg: PoseGraphSLAM | PoseGraphMap, gt: np.ndarray, true_distance: float) -> LoopClosureQuality:
     """The pose graph's loop closures against ground truth ``gt`` (per tick): true if their
     keyframes were within ``true_distance`` metres."""
     pairs = pg.loop_closures

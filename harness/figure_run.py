@@ -2,8 +2,9 @@
 
 simulate -> RatSLAM and GTSAM on the same observations -> recording, metrics, TUM files,
 maps.npz, report.md and PNG panels, all staged and moved into place when complete. A figure's
-variants and a replay take the same path through one stream (:func:`run_single_stream`) and
-write their run the same way (:func:`write_run`).
+variants are stepped by stream and system (:mod:`harness.figure_streams`), a replay through one
+stream (:func:`harness.stream_run.run_single_stream`); both write their run directories the same
+way (:func:`harness.stream_run.finish_stream`, :func:`write_run`).
 """
 
 from __future__ import annotations
@@ -11,245 +12,27 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
-import math
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
 
-import numpy as np
-
-from baselines import PoseGraphConfig, YawBiasConfig
-from ratslam import PAPER_REENTRIES, PoseCellConfig, RatSLAMConfig
-from ratslam.published import departures
-from worlds import ObservationLog, World, load_world, simulate
+from baselines import PoseGraphConfig
+from ratslam import RatSLAMConfig
+from worlds import ObservationLog, load_world
 from worlds.errors import InputError
-from worlds.files import atomic_open, write_tum
-from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
 from .budget import check_grid, check_ticks
-from .config_file import ConfigOverrides, write_config_toml
-from .evaluate import CLOSURE_TRUE_DISTANCE, evaluate_stream
-from .figures import ExtraMetrics, Figure, FigureError, Variant, evaluate_claims, get_figure
-from .progress import Progress
+from .config_file import ConfigOverrides
+from .figure_streams import RunOptions, run_variants
+from .figures import FigureError, evaluate_claims, get_figure
 from .report import write_report
 from .results import FigureInfo, RunResult, VariantConfig, VariantResult, WorldSource
 from .run_dir import provenance, staged_directory
-from .runner import StreamResult, TickError, dead_reckon, run_stream
+from .runner import TickError
 from .scale import derive_configs
-from .workers import fork_context, free_cores, map_in_processes, warm_kernels
-
-if TYPE_CHECKING:
-    from .camera_stream import CameraViews
-    from .recorder import StreamRecorder
-
-RecorderFactory = Callable[[Path, World | None, ObservationLog, RatSLAMConfig, np.ndarray], "StreamRecorder"]
-"""``(run directory, world or None, observation log, RatSLAM's configuration) -> StreamRecorder``
-(e.g. :func:`harness.recorder.recorder_factory`)."""
+from .stream_run import PUBLISHED, RatSLAMChoice, RecorderFactory, progress_bar, ratslam_settings, run_single_stream
+from .workers import free_cores
 
 REPORTS_DIR = Path("reports")  # the committed reports: regenerated only with an explicit out
 RUNS_DIR = Path("runs")  # default output: a fresh, git-ignored folder
-
-
-def lap_length(world: World, gt: np.ndarray) -> float | None:
-    """Mean lap length of a lap world's run: distance driven over laps around the tour's centre."""
-    if world.route_mode != "lap":
-        return None
-    centre = np.mean([world.nodes[n] for n in world.tour[:-1]], axis=0)
-    angle = np.unwrap(np.arctan2(gt[:, 1] - centre[1], gt[:, 0] - centre[0]))
-    laps = abs(angle[-1] - angle[0]) / (2 * math.pi)
-    dist = float(np.hypot(np.diff(gt[:, 0]), np.diff(gt[:, 1])).sum())
-    return dist / laps if laps >= 1 else None
-
-
-def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) -> None:
-    """TUM trajectories and maps.npz (everything the report's panels need) of one stream."""
-    traj = run_dir / "trajectories"
-    traj.mkdir(parents=True, exist_ok=True)
-    t = log.t
-    if log.has_ground_truth:
-        write_tum(traj / "ground_truth.tum", t, *log.ground_truth().T)
-    write_tum(traj / "odometry.tum", t, *res.odometry.T)
-    write_tum(traj / "ratslam.tum", t, *res.ratslam_pose.T)
-    write_tum(traj / "gtsam.tum", t, *res.gtsam_pose.T)
-    rs, pg = res.ratslam, res.gtsam
-    order = np.argsort(rs.experience_first_tick)
-    write_tum(traj / "ratslam_experiences.tum", t[rs.experience_first_tick[order]], *rs.experience_poses[order].T)
-    if len(pg.keyframe_ticks):
-        write_tum(traj / "gtsam_keyframes.tum", t[pg.keyframe_ticks], *pg.keyframe_poses.T)
-    maps: dict[str, Any] = {
-        "grid_shape": np.array(rs.config.shape),
-        "peak_cells": res.peak_cells,
-        "snapped": res.snapped,
-        "experience_poses": rs.experience_poses,
-        "experience_cells": rs.experience_cells,
-        "experience_last_tick": rs.experience_last_tick,
-        "experience_first_tick": rs.experience_first_tick,
-        "links": rs.links,
-        "keyframe_poses": pg.keyframe_poses,
-        "keyframe_ticks": pg.keyframe_ticks,
-        "loop_closures": pg.loop_closures,
-        "closure_accepted": np.asarray(pg.closure_accepted, dtype=bool),
-    }
-    if log.has_ground_truth:  # the panels' references, so that a report is redrawn from maps.npz alone
-        maps |= {"false_positive": log.false_positive, "ground_truth": log.ground_truth(), "odometry": res.odometry}
-    for name, trace in res.alternatives.items():  # other RatSLAM configurations, e.g. the published one
-        alt = trace.system
-        write_tum(traj / f"ratslam_{name}.tum", t, *trace.pose.T)
-        order = np.argsort(alt.experience_first_tick)
-        write_tum(
-            traj / f"ratslam_{name}_experiences.tum",
-            t[alt.experience_first_tick[order]],
-            *alt.experience_poses[order].T,
-        )
-        maps |= {
-            f"{name}_peak_cells": trace.peak_cells,
-            f"{name}_snapped": trace.snapped,
-            f"{name}_experience_poses": alt.experience_poses,
-            f"{name}_experience_first_tick": alt.experience_first_tick,
-            f"{name}_links": alt.links,
-        }
-    with atomic_open(run_dir / "maps.npz", "wb") as f:
-        np.savez_compressed(f, **maps)
-
-
-def _configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
-    """The variant's configurations (and what was derived, if anything): the figure's grid and
-    the variant's biases, on the defaults or on those derived from the log's scale."""
-    nx, ny, nth = fig.grid
-    rs = RatSLAMConfig(
-        pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth, path_integration_bias_deg_s=variant.pi_bias)
-    )
-    if variant.reentries == "unfused":  # the paper's re-entry poses, the relocalisation bound kept
-        rs = rs.replace(reentry=PAPER_REENTRIES["reentry"])
-    elif variant.reentries == "paper":
-        rs = rs.replace(**PAPER_REENTRIES)
-    pg = PoseGraphConfig(yaw_bias=YawBiasConfig(estimate=variant.gtsam_yaw_bias))
-    if variant.derived_scale:
-        return derive_configs(log, rs, pg)
-    return rs, pg, ""
-
-
-def _variant_world(world: World | None, variant: Variant) -> World | None:
-    """The world a variant runs in: as loaded, with its look-alike regions showing their own scenes
-    (and walls, to the camera) if the variant says so, and with the Plaza-calibrated wheel-odometry
-    errors if it asks for them."""
-    if world is None:
-        return world
-    if not variant.lookalikes and world.scenes.lookalikes:
-        world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
-    if not variant.lookalikes and world.camera.same_as:  # the camera's look-alike walls too
-        world = dataclasses.replace(world, camera=dataclasses.replace(world.camera, same_as=()))
-    if variant.wheel_errors:
-        world = dataclasses.replace(world, odometry=dataclasses.replace(world.odometry, **PLAZA_WHEEL_ERRORS))
-    return world
-
-
-def _scene_cell_size(fig: Figure, world: World | None) -> float:
-    """Side (m) of the scene cells the figure's scene numbers come from."""
-    if world is not None:
-        return world.scenes.cell_size
-    from worlds.real_data import PLAZA_SCENES
-
-    return PLAZA_SCENES.cell_size
-
-
-def _variant_log(
-    fig: Figure, variant: Variant, world: World | None, duration: float | None, seed: int
-) -> ObservationLog:
-    """The observation stream of a variant: simulated in its world, or the figure's real data set
-    (scene numbers synthesised from its ground truth with ``seed``)."""
-    if fig.real_log is not None:
-        from worlds.real_data import load_plaza
-
-        return load_plaza(fig.real_log, seed=seed, fp_rate=fig.fp_rate, duration=duration)
-    return simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
-
-
-RatSLAMChoice = Literal["defaults", "published", "both"]
-"""Which RatSLAM a run steps: the project's ``defaults``, the paper's algorithm (``published``:
-:meth:`ratslam.RatSLAMConfig.published`), or ``both`` on the same stream (the defaults primary)."""
-
-PUBLISHED = "published"
-
-
-def ratslam_settings(
-    rs_cfg: RatSLAMConfig, choice: RatSLAMChoice, derivation: str = ""
-) -> tuple[RatSLAMConfig, dict[str, RatSLAMConfig], dict[str, str]]:
-    """The run's RatSLAM configuration, the alternatives run beside it, and the derivation text
-    of each (key "" for the run's own): for the published preset it also names the values, set
-    by the log's derivation or by a configuration file, that the preset's fixed values replace
-    (none is overwritten silently)."""
-    if choice == "defaults":
-        return rs_cfg, {}, {"": derivation}
-    published = RatSLAMConfig.published(rs_cfg)
-    replaced = [d for d in departures(rs_cfg, inert=False) if d not in departures(RatSLAMConfig(), inert=False)]
-    published_derivation = derivation
-    if replaced:
-        published_derivation = (derivation + "\n" if derivation else "") + (
-            "The published preset fixes the paper's values over those derived or given: " + "; ".join(replaced) + "."
-        )
-    if choice == "published":
-        return published, {}, {"": published_derivation}
-    return rs_cfg, {PUBLISHED: published}, {"": derivation, PUBLISHED: published_derivation}
-
-
-def run_single_stream(
-    run_dir: Path,
-    log: ObservationLog,
-    ratslam_config: RatSLAMConfig,
-    gtsam_config: PoseGraphConfig,
-    *,
-    config_header: str,
-    progress: Progress,
-    world: World | None = None,
-    recorder_factory: RecorderFactory | None = None,
-    closure_true_distance: float = CLOSURE_TRUE_DISTANCE,
-    extra_metrics: ExtraMetrics | None = None,
-    alternatives: dict[str, RatSLAMConfig] | None = None,
-    camera: CameraViews | None = None,
-) -> tuple[VariantResult, dict[str, VariantResult]]:
-    """One stream through both systems (and the ``alternatives``: name -> another RatSLAM
-    configuration, on the same stream in the same pass) into ``run_dir``: its effective
-    ``config.toml`` (headed by ``config_header``), the recording (if a ``recorder_factory`` is
-    given; removed if the run fails), the TUM trajectories and maps.npz, and its metrics (with the
-    ``extra_metrics`` of a figure that has them; the caller adds the configuration record): the
-    run's, and each alternative's measured the same way (the pose graph's metrics are shared).
-    ``camera``: a camera stream's views and templates, for the recording."""
-    alternatives = alternatives or {}
-    write_config_toml(run_dir / "config.toml", ratslam_config, gtsam_config, config_header)
-    for name, config in alternatives.items():
-        write_config_toml(
-            run_dir / f"config_{name}.toml",
-            config,
-            gtsam_config,
-            config_header + f"\nRatSLAM here: the {name!r} configuration run beside it on the same stream.",
-        )
-    odometry = dead_reckon(log)  # once: the runner and the recorder share it
-    shown = {} if camera is None else {"camera": camera}  # a scene-number run's factory call as ever
-    recorder = recorder_factory(run_dir, world, log, ratslam_config, odometry, **shown) if recorder_factory else None
-    with recorder if recorder is not None else contextlib.nullcontext():
-        on_tick = recorder.on_tick if recorder is not None else None
-        res = run_stream(
-            log,
-            ratslam_config,
-            gtsam_config,
-            on_tick=on_tick,
-            progress=progress,
-            odometry=odometry,
-            alternatives=alternatives,
-        )
-    write_stream_outputs(run_dir, log, res)
-
-    def measured(stream: StreamResult, config: RatSLAMConfig) -> VariantResult:
-        result = evaluate_stream(stream, log, closure_true_distance=closure_true_distance)
-        if extra_metrics is not None:
-            result = dataclasses.replace(result, extras=extra_metrics(stream, log, config))
-        return result
-
-    return measured(res, ratslam_config), {
-        name: measured(res.with_ratslam(name), config) for name, config in alternatives.items()
-    }
 
 
 def trajectory_checksums(run_dir: Path) -> dict[str, str]:
@@ -267,102 +50,6 @@ def write_run(run_dir: Path, run: RunResult) -> None:
     run = dataclasses.replace(run, trajectory_sha256=trajectory_checksums(run_dir))
     run.write(run_dir / "metrics.json")
     write_report(run_dir, run)
-
-
-def _progress(log: ObservationLog, label: str, show: bool, redraw: bool | None = None) -> Progress:
-    return Progress(len(log), label, float(np.median(log.dt)), enabled=show, redraw=redraw)
-
-
-@dataclass(frozen=True)
-class VariantRun:
-    """What one variant's run hands back to its figure: its metrics, the mean lap of a lap
-    world's run (None otherwise), the duration of its stream, and the metrics of the other
-    RatSLAM configurations run beside it (e.g. ``published``)."""
-
-    result: VariantResult
-    lap_length_m: float | None
-    duration_s: float
-    alternatives: dict[str, VariantResult] = dataclasses.field(default_factory=dict)
-
-
-def _run_variant(
-    run_dir: Path,
-    fig: Figure,
-    variant: Variant,
-    world: World | None,
-    duration: float | None,
-    seed: int,
-    show_progress: bool,
-    recorder_factory: RecorderFactory | None = None,
-    config: ConfigOverrides | None = None,
-    redraw: bool | None = None,
-    ratslam: RatSLAMChoice = "both",
-    camera: str | None = None,
-) -> VariantRun:
-    world = _variant_world(world, variant)
-    log = _variant_log(fig, variant, world, duration, seed)
-    rs_cfg, pg_cfg, derivation = _configs(fig, variant, log)
-    views = None
-    if camera is not None:
-        from .camera_stream import camera_view_config
-
-        rs_cfg = rs_cfg.replace(view=camera_view_config(camera))
-    if config is not None:
-        rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
-    if camera is not None and world is not None:  # the scene numbers replaced by the camera's views
-        from .camera_stream import camera_configs, camera_views
-
-        log, views = camera_views(world, log, camera, seed, rs_cfg.view)
-        rs_cfg, pg_cfg, camera_derivation = camera_configs(log, rs_cfg.view, rs_cfg, pg_cfg)
-        if config is not None:  # a configuration file's values still have the last word
-            rs_cfg, pg_cfg = config.apply(rs_cfg, pg_cfg)
-        derivation = (derivation + "\n" if derivation else "") + camera_derivation
-    rs_cfg, alternatives, derivations = ratslam_settings(rs_cfg, ratslam, derivation)
-    derivation = derivations[""]
-    result, alt_results = run_single_stream(
-        run_dir,
-        log,
-        rs_cfg,
-        pg_cfg,
-        config_header=f"Effective configuration of {fig.name}, variant {variant.name} (seed {seed}).\n"
-        + (f"{derivation}\n" if derivation else "")
-        + "Reproduce on its log: ratslam-harness replay LOG.csv --config config.toml",
-        progress=_progress(log, f"{fig.name}/{variant.name}", show_progress, redraw),
-        world=world,
-        recorder_factory=recorder_factory,
-        closure_true_distance=1.5 * _scene_cell_size(fig, world),
-        extra_metrics=fig.extra_metrics,
-        alternatives=alternatives,
-        camera=views,
-    )
-
-    def recorded(r: VariantResult, cfg: RatSLAMConfig, name: str = "") -> VariantResult:
-        return dataclasses.replace(
-            r,
-            config=VariantConfig(
-                ratslam=dataclasses.asdict(cfg),
-                gtsam=dataclasses.asdict(pg_cfg),
-                odometric_bias_deg_s=variant.odometric_bias,
-                pi_bias_deg_s=variant.pi_bias,
-                wheel_errors=dict(PLAZA_WHEEL_ERRORS) if variant.wheel_errors else None,
-            ),
-            derived_scale=derivations[name] or None,
-        )
-
-    lap = lap_length(world, log.ground_truth()) if world is not None else None
-    return VariantRun(
-        recorded(result, rs_cfg),
-        lap,
-        log.duration,
-        {name: recorded(r, alternatives[name], name) for name, r in alt_results.items()},
-    )
-
-
-def _variant_job(job: tuple[str, Path, Variant, dict[str, Any]]) -> VariantRun:
-    """One variant's run from its job: the figure by name (its claims are closures, which do not
-    pickle), the variant's directory, the variant, and :func:`_run_variant`'s other arguments."""
-    fig_name, run_dir, variant, kwargs = job
-    return _run_variant(run_dir, get_figure(fig_name), variant, **kwargs)
 
 
 def default_workers(n_jobs: int) -> int:
@@ -393,9 +80,10 @@ def run_figure(
     simulated camera's views through the view matcher (:mod:`harness.camera_stream`) instead of
     scene numbers.
 
-    The variants are independent runs: with ``workers`` > 1 (default: one process per variant,
-    at most one per core) they run in parallel processes; each is deterministic, so the output
-    is the same as a sequential run (``workers=1``) bit for bit, timings aside."""
+    Each distinct (stream, system, configuration) is computed once, in jobs on ``workers``
+    processes (default: one per core; :mod:`harness.figure_streams`); every system is
+    deterministic, so the output is the same as a sequential run (``workers=1``) bit for bit,
+    timings aside."""
     fig = get_figure(name)
     if variants is not None:
         unknown = set(variants) - {v.name for v in fig.variants}
@@ -410,10 +98,9 @@ def run_figure(
     if camera is not None and world is None:
         raise FigureError(f"{name}: a real data set has no simulated world to render (--camera)")
     out = Path(out) if out else RUNS_DIR / (fig.name if camera is None else f"{fig.name}_{camera}")
-    workers = default_workers(len(fig.variants)) if workers is None else max(1, int(workers))
+    workers = free_cores() if workers is None else max(1, int(workers))
     with staged_directory(out, _inputs(config)) as stage:
-        parallel = workers > 1 and len(fig.variants) > 1
-        shared = dict(
+        options = RunOptions(
             world=world,
             duration=duration,
             seed=seed,
@@ -422,18 +109,14 @@ def run_figure(
             config=config,
             ratslam=ratslam,
             camera=camera,
-            redraw=False if parallel else None,  # several bars in parallel workers would clash
+            redraw=False if workers > 1 else None,  # several bars in parallel workers would clash
         )
-        jobs = []
+        members = []
         for i, variant in enumerate(fig.variants):
             vdir = stage if i == 0 else stage / "variants" / variant.name
             vdir.mkdir(parents=True, exist_ok=True)
-            jobs.append((fig.name, vdir, variant, shared))
-        if parallel:
-            warm_kernels()  # compiled once here, inherited by the forked workers
-            runs = map_in_processes(_variant_job, jobs, min(workers, len(jobs)), fork_context())
-        else:
-            runs = [_variant_job(job) for job in jobs]
+            members.append((variant, vdir))
+        runs = run_variants(fig, members, options, workers)
         primary = runs[0]
         run = RunResult(
             figure=FigureInfo(
@@ -563,7 +246,7 @@ def replay(
             config_header=f"Effective configuration of the replay of {name}.\n"
             f"{derivation}\n"
             f"Reproduce: ratslam-harness replay {name} --config config.toml",
-            progress=_progress(log, f"replay {name}", show_progress),
+            progress=progress_bar(log, f"replay {name}", show_progress),
             recorder_factory=recorder_factory,
             alternatives=alternatives,
             camera=views,

@@ -10,9 +10,9 @@ static mirror transform so that y points up in the viewer, the data themselves a
 ``world/ground_truth``         one segment per tick (previous -> current true position)
 ``world/odometry``             one segment per tick, dead reckoning anchored at the first true pose
 ``world/false_positives``      a point where a false-positive scene was reported (true position)
-``world/ratslam/experiences``  experience map nodes, re-logged every ``every_map`` ticks
+``world/ratslam/experiences``  experience map nodes, re-logged every ``every_map`` ticks or more (below)
 ``world/ratslam/links``        experience map transitions (segments), re-logged with the nodes
-``world/gtsam/estimate``       GTSAM keyframe trajectory, re-logged every ``every_map`` ticks
+``world/gtsam/estimate``       GTSAM keyframe trajectory, re-logged with the experience map
 ``world/gtsam/closures``       accepted GTSAM loop closures (segments), every ``every_closures`` ticks
 ``pose_cells/grid``            4 x 4-cell grid lines (static)
 ``pose_cells/activity``        x'y' projection (sum over θ') of the pose-cell activity, RGB image,
@@ -28,20 +28,13 @@ static mirror transform so that y points up in the viewer, the data themselves a
 =============================  ===================================================================
 
 The experience map and the GTSAM estimate change under correction/optimisation, so they are
-logged whole, but only every ``every_map`` ticks (and at the last tick); trajectories are one
-segment per tick. With ground truth, both maps are drawn after SE(2) alignment
+logged whole, every ``every_map`` ticks while the maps hold fewer than ``map_size`` places
+(experiences and keyframes), then every ``every_map`` times ``size // map_size`` ticks, so that a
+re-log's cost, which grows with the maps, stays a fixed share of a long run (and at the last tick);
+trajectories are one segment per tick. With ground truth, both maps are drawn after SE(2) alignment
 (:func:`harness.metrics.ate`) of their poses onto the true poses at the ticks each
 experience was last active / each keyframe was taken, computed at each re-log; without ground
 truth they are drawn in their own frames.
-
-Size and time at the defaults, measured with ``bench/bench_recorder.py``: a synthetic 2.5-h run
-(63,000 ticks, 5,000 experiences, 6,000 keyframes, 60 x 60 x 36 grid) gives 92 MB and 49 µs per
-tick; the real Fig 4 run (office_floor, 9,000 s) 69 MB and 7.9 % of the run's wall time
-(targets: <= 300 MB, <= 25 %).
-
-The file is written under a temporary name next to ``path`` (rerun's encoded stream, held in
-memory and written by this process at the end) and moved into place by :meth:`Recorder.close`
-(atomic); :meth:`Recorder.abort` (or an exception inside a ``with`` block) removes it instead.
 """
 
 from __future__ import annotations
@@ -205,7 +198,10 @@ class Recorder(_ClosedOnSuccess):
         Log the pose-cell activity image every this many ticks (default 35: 5 s at 7 Hz).
     every_map:
         Re-log the experience map, the GTSAM estimate and the live metrics every this many
-        ticks (default 70: 10 s at 7 Hz). See ``bench/bench_recorder.py`` for size and time.
+        ticks (default 70: 10 s at 7 Hz) while the maps are small (``map_size``).
+    map_size:
+        Experiences and keyframes together per multiple of ``every_map`` between re-logs
+        (default 2000): a map of 6,000 places is re-logged every 3 x ``every_map`` ticks.
     every_closures:
         Re-log GTSAM's accepted loop closures every this many ticks (default 700: 100 s at 7 Hz;
         reading the acceptance flags costs the baseline a pass over all its closures).
@@ -233,6 +229,7 @@ class Recorder(_ClosedOnSuccess):
         every_activity: int = 35,
         every_map: int = 70,
         every_closures: int = 700,
+        map_size: int = 2000,
         flush_every: int = 70,
         align: bool = True,
         world_bounds=None,
@@ -245,6 +242,7 @@ class Recorder(_ClosedOnSuccess):
             ("every_activity", every_activity),
             ("every_map", every_map),
             ("every_closures", every_closures),
+            ("map_size", map_size),
             ("flush_every", flush_every),
         ):
             if not (isinstance(v, (int, np.integer)) and v >= 1):
@@ -254,7 +252,7 @@ class Recorder(_ClosedOnSuccess):
         self.path = Path(path)
         self.grid_shape = tuple(int(g) for g in grid_shape)
         self.every_activity, self.every_map, self.align = int(every_activity), int(every_map), bool(align)
-        self.every_closures = int(every_closures)
+        self.every_closures, self.map_size = int(every_closures), int(map_size)
         self.camera = bool(camera)
         walls = None if walls is None else np.asarray(walls, dtype=float).reshape(-1, 2, 2)
         if world_bounds is None and walls is not None and len(walls):
@@ -291,6 +289,7 @@ class Recorder(_ClosedOnSuccess):
         self._snaps = 0
         self._last: tuple[int, float, Any, Any] | None = None  # (tick, t, ratslam, gtsam) of the last log_tick
         self._last_map_tick: int | None = None
+        self._next_map_tick = self._next_closures_tick = 0
         self._static(walls)
 
     # ------------------------------------------------------------------ static content
@@ -383,8 +382,9 @@ class Recorder(_ClosedOnSuccess):
             if k % self.every_activity == 0:
                 self._log_activity(k, t, ratslam)
         self._last = (k, t, ratslam, gtsam)
-        if k % self.every_map == 0:
-            self._log_maps(k, t, ratslam, gtsam)
+        if k >= self._next_map_tick:
+            places = self._log_maps(k, t, ratslam, gtsam)
+            self._next_map_tick = k + self.every_map * max(1, places // self.map_size)
 
     def log_view(self, tick: int, t: float, image, template) -> None:
         """Record a camera run's view at step ``tick`` and the template it matched (both 2-D
@@ -415,12 +415,14 @@ class Recorder(_ClosedOnSuccess):
                 return res.apply(poses[:, :2]), res.rmse
         return poses[:, :2], None
 
-    def _log_maps(self, k: int, t: float, ratslam, gtsam, final: bool = False) -> None:
+    def _log_maps(self, k: int, t: float, ratslam, gtsam, final: bool = False) -> int:
+        """Log the maps at tick ``k``; returns their size (experiences and keyframes)."""
         rec = self.rec
         rec.set_time("tick", sequence=k)
         rec.set_time("sim_time", duration=t)
         self._last_map_tick = k
         scalars: dict[str, float] = {"count/snaps": self._snaps}
+        places = 0
         if ratslam is not None:
             poses = np.asarray(ratslam.experience_poses, dtype=float).reshape(-1, 3)
             links = np.asarray(ratslam.links, dtype=np.int64).reshape(-1, 2)
@@ -431,6 +433,7 @@ class Recorder(_ClosedOnSuccess):
                 if err is not None:
                     scalars["ate/experience_map"] = err
             scalars["count/experiences"] = len(poses)
+            places += len(poses)
             scalars["count/links"] = len(links)
         if gtsam is not None:
             kf = np.asarray(gtsam.keyframe_poses, dtype=float).reshape(-1, 3)
@@ -439,7 +442,8 @@ class Recorder(_ClosedOnSuccess):
                 rec.log("world/gtsam/estimate", rr.LineStrips2D([xy], colors=[C_GTSAM], radii=[0.03]))
                 if err is not None:
                     scalars["ate/gtsam"] = err
-                if final or k % self.every_closures == 0:
+                if final or k >= self._next_closures_tick:
+                    self._next_closures_tick = k + self.every_closures
                     pairs = np.asarray(gtsam.loop_closures, dtype=np.int64).reshape(-1, 2)
                     acc = np.asarray(gtsam.closure_accepted, dtype=bool).reshape(-1)
                     rec.log(
@@ -448,6 +452,7 @@ class Recorder(_ClosedOnSuccess):
                     )
                     scalars["count/loop_closures_accepted"] = int(acc.sum())
             scalars["count/keyframes"] = len(kf)
+            places += len(kf)
         gt, od = self._gt[: k + 1], self._odom[: k + 1]
         ok = np.flatnonzero(np.isfinite(gt[:, 0]) & np.isfinite(od[:, 0]))
         if len(ok) >= 2:
@@ -455,6 +460,7 @@ class Recorder(_ClosedOnSuccess):
             scalars["ate/odometry"] = metrics.ate_rmse(od[ok], gt[ok])
         for name, v in scalars.items():
             rec.log(f"metrics/{name}", rr.Scalars([float(v)]))
+        return places
 
     # ------------------------------------------------------------------ metrics, closing
     def log_metrics(self, tick: int, values: Mapping, t: float | None = None) -> None:

@@ -19,7 +19,7 @@ from worlds import ObservationLog
 
 from .stream import TickError, Trace, step_stream
 
-__all__ = ["StreamResult", "TickError", "dead_reckon", "run_stream"]
+__all__ = ["PoseGraphMap", "StreamResult", "TickError", "dead_reckon", "run_stream"]
 
 
 def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -39,6 +39,34 @@ def dead_reckon(log: ObservationLog, start=(0.0, 0.0, 0.0)) -> np.ndarray:
     return np.column_stack([x, y, theta_end])
 
 
+@dataclass(frozen=True)
+class PoseGraphMap:
+    """The pose graph's final map as the metrics, trajectories and panels read it (the attributes of
+    :class:`baselines.PoseGraphSLAM` they use), detached from gtsam's objects: what a worker process
+    hands back after stepping a pose graph (iSAM2 does not pickle)."""
+
+    keyframe_poses: np.ndarray
+    keyframe_ticks: np.ndarray
+    loop_closures: np.ndarray
+    closure_accepted: np.ndarray
+    isam2_recoveries: int
+    closures_dropped: int
+
+    @classmethod
+    def of(cls, pg: PoseGraphSLAM | PoseGraphMap) -> PoseGraphMap:
+        """The final map of a pose graph that has taken its last tick."""
+        if isinstance(pg, PoseGraphMap):
+            return pg
+        return cls(
+            keyframe_poses=pg.keyframe_poses,
+            keyframe_ticks=pg.keyframe_ticks,
+            loop_closures=pg.loop_closures,
+            closure_accepted=np.asarray(pg.closure_accepted, dtype=bool),
+            isam2_recoveries=int(pg.isam2_recoveries),
+            closures_dropped=int(pg.closures_dropped),
+        )
+
+
 @dataclass
 class StreamResult:
     """Per-tick estimates and final maps of both systems on one stream; ``alternatives``: other
@@ -52,9 +80,36 @@ class StreamResult:
     snapped: np.ndarray  # (N,) bool
     gtsam_pose: np.ndarray  # (N, 3) online pose-graph estimate
     ratslam: RatSLAM
-    gtsam: PoseGraphSLAM
+    gtsam: PoseGraphSLAM | PoseGraphMap
     wall: dict = field(default_factory=dict)  # seconds per system
     alternatives: dict[str, Trace] = field(default_factory=dict)
+
+    @classmethod
+    def from_traces(
+        cls,
+        log: ObservationLog,
+        odometry: np.ndarray,
+        ratslam: Trace,
+        gtsam: Trace,
+        alternatives: dict[str, Trace],
+        other_s: float,
+    ) -> StreamResult:
+        """The result of a stream from its systems' traces (RatSLAM's, the pose graph's and the
+        alternative RatSLAMs' by name), its dead reckoning and the seconds spent outside the systems."""
+        assert ratslam.peak_cells is not None and ratslam.peak_metres is not None and ratslam.snapped is not None
+        return cls(
+            t=log.t,
+            odometry=odometry,
+            ratslam_pose=ratslam.pose,
+            peak_cells=ratslam.peak_cells,
+            peak_metres=ratslam.peak_metres,
+            snapped=ratslam.snapped,
+            gtsam_pose=gtsam.pose,
+            ratslam=ratslam.system,
+            gtsam=gtsam.system,
+            wall={"ratslam_s": ratslam.wall_s, "gtsam_s": gtsam.wall_s, "recording_and_bookkeeping_s": other_s},
+            alternatives=alternatives,
+        )
 
     def with_ratslam(self, name: str) -> StreamResult:
         """The same stream's result with the alternative RatSLAM ``name`` in RatSLAM's place (the
@@ -103,18 +158,4 @@ def run_stream(
         odometry = dead_reckon(log)
     tick_hook = None if on_tick is None else (lambda k, s: on_tick(k, s[RATSLAM], s[GTSAM]))
     traces, other_s = step_stream(log, systems, on_tick=tick_hook, progress=progress)
-    rs, pg = traces.pop(RATSLAM), traces.pop(GTSAM)
-    assert rs.peak_cells is not None and rs.peak_metres is not None and rs.snapped is not None
-    return StreamResult(
-        t=log.t,
-        odometry=odometry,
-        ratslam_pose=rs.pose,
-        peak_cells=rs.peak_cells,
-        peak_metres=rs.peak_metres,
-        snapped=rs.snapped,
-        gtsam_pose=pg.pose,
-        ratslam=rs.system,
-        gtsam=pg.system,
-        wall={"ratslam_s": rs.wall_s, "gtsam_s": pg.wall_s, "recording_and_bookkeeping_s": other_s},
-        alternatives=traces,
-    )
+    return StreamResult.from_traces(log, odometry, traces.pop(RATSLAM), traces.pop(GTSAM), traces, other_s)

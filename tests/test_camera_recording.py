@@ -25,9 +25,9 @@ from worlds import load_world, simulate
 @pytest.fixture(scope="module")
 def camera_run(tmp_path_factory):
     """20 s of the small loop seen by the forward camera, through both systems, recorded."""
-    from harness.figure_run import run_single_stream
     from harness.progress import Progress
     from harness.recorder import recorder_factory
+    from harness.stream_run import run_single_stream
 
     world = load_world("small_loop")
     log = simulate(world, duration=20.0, seed=0)

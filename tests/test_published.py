@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from harness.config_file import ConfigFileError, read_config_file
-from harness.figure_run import ratslam_settings
+from harness.stream_run import ratslam_settings
 from harness.sweep_spec import SweepSpecError, read_sweep_spec
 from ratslam import PAPER_REENTRIES, PoseCellConfig, RatSLAMConfig
 from ratslam.published import PUBLISHED, SCALE, departures, field_paths, markdown_table

@@ -88,11 +88,12 @@ class FakePoseGraph:
     closure_accepted = property(lambda self: np.array([True, False]) if len(self._kf) > 12 else np.zeros(0, bool))
 
 
-def make_recording(path: Path, with_gt: bool = True) -> dict:
+def make_recording(path: Path, with_gt: bool = True, **options) -> dict:
     walls = np.array([[[-4, -4], [4, -4]], [[4, -4], [4, 4]], [[4, 4], [-4, 4]], [[-4, 4], [-4, -4]]], float)
     rs, pg = FakeRatSLAM(), FakePoseGraph()
     peaks = []
-    with Recorder(path, walls, GRID, every_activity=EVERY_ACTIVITY, every_map=EVERY_MAP, flush_every=FLUSH) as rec:
+    options = dict(every_activity=EVERY_ACTIVITY, every_map=EVERY_MAP, flush_every=FLUSH) | options
+    with Recorder(path, walls, GRID, **options) as rec:
         assert not path.exists()  # written under a temporary name until closed
         for k in range(N_TICKS):
             gt = ground_truth(k)
@@ -200,6 +201,21 @@ def test_row_counts(recording):
     assert rows(by_entity, "/world/false_positives") == len(FP_TICKS)
 
 
+def test_a_growing_map_is_relogged_less_often(tmp_path):
+    """Past ``map_size`` places (experiences and keyframes) the maps are re-logged every
+    ``every_map`` times ``places // map_size`` ticks: the gaps grow with the map, in whole
+    multiples of ``every_map``, and the last tick still has the final maps."""
+    path = tmp_path / "r.rrd"
+    make_recording(path, every_map=10, map_size=8)  # the fake's map grows by 0.15 places a tick
+    chunks = [c for c in RrdReader(path).store().stream().to_chunks() if c.entity_path == "/world/ratslam/experiences"]
+    ticks = np.sort(np.concatenate([c.to_record_batch().column("tick").cast(pa.int64()).to_numpy() for c in chunks]))
+    gaps = np.diff(ticks[:-1])  # the last re-log is the final one, at the last tick
+    assert ticks[-1] == N_TICKS - 1
+    assert np.all(gaps % 10 == 0) and np.all(np.diff(gaps) >= 0)
+    assert gaps[0] == 10 and gaps[-1] >= 40  # 0.15 * 250 places // 8 -> every 40 ticks or more
+    assert len(ticks) < len(range(0, N_TICKS, 10))
+
+
 def test_per_tick_rows_are_each_tick_once(recording):
     """Every tick 1..N-1 exactly once, each segment from the previous true position to the
     current one (the buffers are reused between batches, the file must not alias them)."""
@@ -287,7 +303,7 @@ def test_stream_recorder_is_aborted_on_an_error(tmp_path):
 
 def test_a_failing_run_leaves_no_recording(tmp_path, monkeypatch):
     """A run that fails part-way through its stream aborts the recording it was writing."""
-    import harness.figure_run as fr
+    import harness.stream_run as fr
     from baselines import PoseGraphConfig
     from harness.progress import Progress
     from harness.recorder import recorder_factory
