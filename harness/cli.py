@@ -90,15 +90,12 @@ def _cmd_run(args) -> None:
 def _check_figure_size(fig, config, duration, yes: bool) -> None:
     """A figure's pose-cell grid (with the configuration file's fields) and stream length against
     the budget (:mod:`harness.budget`), before anything runs."""
-    from baselines import PoseGraphConfig
-    from ratslam import PoseCellConfig, RatSLAMConfig
-
     from .budget import check_grid, check_ticks
+    from .figures import figure_configs
 
-    nx, ny, nth = fig.grid
-    rs = RatSLAMConfig(pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth))
+    rs, pg = figure_configs(fig)
     if config is not None:
-        rs, _ = config.apply(rs, PoseGraphConfig())
+        rs, _ = config.apply(rs, pg)
     check_grid(config.source if config is not None and config.source else fig.name, rs.shape, yes)
     duration = fig.duration if duration is None else duration
     if fig.world is not None and duration is not None:

@@ -34,13 +34,22 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from baselines import PoseGraphConfig
-from ratslam import RatSLAMConfig
+from ratslam import PAPER_REENTRIES, RatSLAMConfig
 from slamkit.config_fields import ConfigError, renamed, replace, subconfigs
 from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_text
 
 TABLES: dict[str, type] = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
-PRESETS = ("published",)  # RatSLAM presets a file (or a sweep's system) may name: RatSLAMConfig.<preset>()
+PRESETS: dict[str, Callable[[RatSLAMConfig], RatSLAMConfig]] = {
+    # the paper's algorithm (RatSLAMConfig.published: every field's published value, the scale kept)
+    "published": RatSLAMConfig.published,
+    # the paper's re-entries alone: wherever the pose cells say (ratslam.PAPER_REENTRIES)
+    "paper_reentries": lambda config: config.replace(**PAPER_REENTRIES),
+    # the paper's re-entry poses (no fusion with the odometry), the relocalisation bound kept
+    "paper_reentry_poses": lambda config: config.replace(reentry=PAPER_REENTRIES["reentry"]),
+}
+"""RatSLAM presets a configuration file, a sweep's system or a figure's variant may name, each
+applied to a configuration (the fields given beside it go on top)."""
 
 
 def read_preset(table: dict, at: str, fail: Callable[[str, str], NoReturn]) -> str | None:
@@ -53,9 +62,19 @@ def read_preset(table: dict, at: str, fail: Callable[[str, str], NoReturn]) -> s
     return preset
 
 
+def merged(base: dict, over: dict) -> dict:
+    """Configuration fields ``over`` on top of ``base`` (nested mappings, one per sub-config,
+    merged field by field)."""
+    out = dict(base)
+    for key, value in over.items():
+        both = isinstance(value, dict) and isinstance(out.get(key), dict)
+        out[key] = merged(out[key], value) if both else value
+    return out
+
+
 def with_preset(config: RatSLAMConfig, preset: str | None) -> RatSLAMConfig:
     """``config`` with the named preset applied (its scale fields kept); unchanged for None."""
-    return config if preset is None else getattr(RatSLAMConfig, preset)(config)
+    return config if preset is None else PRESETS[preset](config)
 
 
 class ConfigFileError(InputError):

@@ -43,12 +43,12 @@ from typing import Any
 
 import numpy as np
 
-from ratslam import PoseCellConfig, RatSLAM, RatSLAMConfig
+from ratslam import RatSLAM, RatSLAMConfig
 from ratslam.published import departures, field_paths
 from worlds import ObservationLog, load_world, simulate
 from worlds.files import atomic_open
 
-from .figures import get_figure
+from .figures import figure_configs, get_figure
 from .metrics import ate_rmse, wrap_angle
 from .runner import dead_reckon
 from .stream import step_stream
@@ -319,10 +319,9 @@ def figure_base(figure: str) -> RatSLAMConfig:
     """The defaults on a figure's grid with its primary variant's path-integration bias."""
     fig = get_figure(figure)
     v = fig.primary
-    if v.odometric_bias or v.wheel_errors or not v.lookalikes or v.reentries != "default" or v.derived_scale:
+    if v.odometric_bias or v.wheel_errors or not v.lookalikes or v.ratslam_preset or v.gtsam or v.derived:
         raise ValueError(f"{figure}: the study runs primary variants on the plain world only")
-    nx, ny, nth = fig.grid
-    return RatSLAMConfig(pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth, path_integration_bias_deg_s=v.pi_bias))
+    return figure_configs(fig)[0]
 
 
 def figure_stream(figure: str, seed: int, duration: float | None = None, world: Any = None) -> ObservationLog:

@@ -26,13 +26,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from baselines import PoseGraphConfig, PoseGraphSLAM, YawBiasConfig
-from ratslam import PAPER_REENTRIES, PoseCellConfig, RatSLAM, RatSLAMConfig
+from baselines import PoseGraphConfig, PoseGraphSLAM
+from ratslam import RatSLAM, RatSLAMConfig
 from worlds import ObservationLog, World, simulate
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
 from .config_file import ConfigOverrides
-from .figures import Figure, Variant, get_figure
+from .figures import Figure, Variant, figure_configs, get_figure
 from .results import VariantConfig, VariantResult
 from .runner import GTSAM, RATSLAM, PoseGraphMap, StreamResult, dead_reckon
 from .scale import derive_configs
@@ -56,18 +56,11 @@ if TYPE_CHECKING:
 
 
 def variant_configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
-    """The variant's configurations (and what was derived, if anything): the figure's grid and
-    the variant's biases, on the defaults or on those derived from the log's scale."""
-    nx, ny, nth = fig.grid
-    rs = RatSLAMConfig(
-        pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth, path_integration_bias_deg_s=variant.pi_bias)
-    )
-    if variant.reentries == "unfused":  # the paper's re-entry poses, the relocalisation bound kept
-        rs = rs.replace(reentry=PAPER_REENTRIES["reentry"])
-    elif variant.reentries == "paper":
-        rs = rs.replace(**PAPER_REENTRIES)
-    pg = PoseGraphConfig(yaw_bias=YawBiasConfig(estimate=variant.gtsam_yaw_bias))
-    if variant.derived_scale:
+    """The variant's configurations (and what was derived, if anything): the figure's and the
+    variant's (:func:`harness.figures.figure_configs`), or those derived from the log's scale on
+    top of them."""
+    rs, pg = figure_configs(fig, variant)
+    if variant.derived:
         return derive_configs(log, rs, pg)
     return rs, pg, ""
 
@@ -386,7 +379,7 @@ def write_variant(out: VariantOutput) -> VariantRun:
                 ratslam=dataclasses.asdict(cfg),
                 gtsam=dataclasses.asdict(setup.gtsam),
                 odometric_bias_deg_s=variant.odometric_bias,
-                pi_bias_deg_s=variant.pi_bias,
+                pi_bias_deg_s=cfg.pose_cells.path_integration_bias_deg_s,
                 wheel_errors=dict(PLAZA_WHEEL_ERRORS) if variant.wheel_errors else None,
             ),
             derived_scale=setup.derivations[name] or None,

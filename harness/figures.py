@@ -1,8 +1,9 @@
 """The figure registry: one entry per paper figure, with its set-up and its claims as checks.
 
-Each :class:`Figure` names a world, a duration, a seed, the false-positive rate, the pose-cell
-grid and one or more :class:`Variant` runs (Figs 8-10 run twice: the bias in RatSLAM's path
-integration only, as the paper did, and the bias in the odometry seen by both systems). Its
+Each :class:`Figure` names a world, a duration, a seed, the false-positive rate, RatSLAM's
+configuration fields (the pose-cell grid) and one or more :class:`Variant` runs (Figs 8-10 run
+twice: the bias in RatSLAM's path integration only, as the paper did, and the bias in the odometry
+seen by both systems). Its
 :class:`Claim` entries are the paper's statements for that figure written as checks over the
 run's typed result (:class:`harness.results.RunResult`); the report tabulates them (statement,
 measured value, held or not). A name a claim reads (variant, trajectory, count) is checked when
@@ -14,15 +15,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
+from baselines import PoseGraphConfig
+from ratslam import RatSLAMConfig
+from slamkit.config_fields import replace
 from worlds.errors import InputError
 
+from .config_file import with_preset
 from .results import ClaimResult, PerTrajectory, RunResult
 
 if TYPE_CHECKING:
-    from ratslam import RatSLAMConfig
     from worlds import ObservationLog
 
     from .runner import StreamResult
@@ -36,21 +40,32 @@ class NotMeasurable(Exception):
     """A claim's quantity is missing from the run (e.g. no experiences, a NaN): the claim cannot be judged."""
 
 
+ConfigFields = dict[str, Any]
+"""Configuration fields as a configuration file writes them, one mapping per sub-config:
+``{"pose_cells": {"nx": 40, "ny": 40}}`` (:func:`slamkit.config_fields.replace`)."""
+
+
 @dataclass(frozen=True)
 class Variant:
-    """One run of a figure: where the odometric bias goes, and whether look-alike places look alike."""
+    """One run of a figure, in the words of the configuration files and the sweeps: the conditions
+    of its stream (the sweep axes of the same names) and its systems' configuration.
+
+    Stream: ``odometric_bias`` (deg/s added to the logged odometry, seen by both systems),
+    ``lookalikes`` (False: the world's look-alike regions show their own scene numbers),
+    ``wheel_errors`` (the world's odometry gets the Plaza-calibrated systematic errors).
+    Systems: ``ratslam_preset`` (a preset of :data:`harness.config_file.PRESETS`) and the
+    ``ratslam`` / ``gtsam`` configuration fields on top of the figure's; ``derived``: the
+    configurations derived from the log's scale as ``replay`` derives them (:mod:`harness.scale`)."""
 
     name: str
     label: str
-    odometric_bias: float = 0.0  # deg/s added to the logged odometry, seen by both systems
-    pi_bias: float = 0.0  # deg/s added to RatSLAM's pose-cell path integration only
-    lookalikes: bool = True  # False: the world's look-alike regions show their own scene numbers
-    gtsam_yaw_bias: bool = False  # the pose graph estimates a constant yaw-rate bias variable
-    derived_scale: bool = False  # configurations derived from the log's scale (harness/scale.py)
-    wheel_errors: bool = False  # the world's odometry gets the Plaza-calibrated systematic errors
-    # RatSLAM's re-entries: "default"; "unfused": the pose cells' pose alone, the relocalisation
-    # bound kept; "paper": wherever the pose cells say (ratslam.PAPER_REENTRIES)
-    reentries: Literal["default", "unfused", "paper"] = "default"
+    odometric_bias: float = 0.0
+    lookalikes: bool = True
+    wheel_errors: bool = False
+    ratslam_preset: str | None = None
+    ratslam: ConfigFields = field(default_factory=dict)
+    gtsam: ConfigFields = field(default_factory=dict)
+    derived: bool = False
 
 
 # Systematic wheel-odometry errors calibrated on a real vehicle (worlds.odometry_model), added to a
@@ -97,7 +112,7 @@ class Figure:
     duration: float | None  # simulated seconds (real logs: None = all of it)
     seed: int = 0
     fp_rate: float = 0.002  # per tick
-    grid: tuple[int, int, int] = (60, 60, 36)
+    ratslam: ConfigFields = field(default_factory=dict)  # RatSLAM's fields for every variant (e.g. the grid)
     variants: tuple[Variant, ...] = (Variant("default", "no bias"),)
     claims: tuple[Claim, ...] = ()
     notes: str = ""
@@ -107,6 +122,15 @@ class Figure:
     @property
     def primary(self) -> Variant:
         return self.variants[0]
+
+
+def figure_configs(fig: Figure, variant: Variant | None = None) -> tuple[RatSLAMConfig, PoseGraphConfig]:
+    """The configurations a variant of ``fig`` runs (the primary, if none is named): the defaults
+    with the figure's RatSLAM fields, the variant's preset, and the variant's fields on top
+    (configurations derived from a log start from these: :func:`harness.figure_streams.variant_configs`)."""
+    variant = variant or fig.primary
+    rs = with_preset(replace(RatSLAMConfig(), fig.ratslam), variant.ratslam_preset)
+    return replace(rs, variant.ratslam), replace(PoseGraphConfig(), variant.gtsam)
 
 
 def evaluate_claims(fig: Figure, run: RunResult) -> list[ClaimResult]:
@@ -312,20 +336,24 @@ def _bias_figure(name: str, bias: float) -> Figure:
         seed=0,
         fp_rate=0.002,
         variants=(
-            Variant("paper", f"{bias} deg/s in RatSLAM's path integration (the paper's manipulation)", pi_bias=bias),
+            Variant(
+                "paper",
+                f"{bias} deg/s in RatSLAM's path integration (the paper's manipulation)",
+                ratslam={"pose_cells": {"path_integration_bias_deg_s": bias}},
+            ),
             Variant(
                 "odometric",
                 f"{bias} deg/s in the odometry seen by both systems; RatSLAM's re-entries not fused with it",
                 odometric_bias=bias,
-                reentries="unfused",
+                ratslam_preset="paper_reentry_poses",
             ),
             Variant(
                 "odometric_bias_var",
                 f"{bias} deg/s in the odometry; the pose graph estimates a "
                 "yaw-rate bias variable (what a practitioner does about a gyro bias)",
                 odometric_bias=bias,
-                gtsam_yaw_bias=True,
-                reentries="unfused",
+                ratslam_preset="paper_reentry_poses",
+                gtsam={"yaw_bias": {"estimate": True}},
             ),
         ),
         claims=_bias_claims(bias),
@@ -360,8 +388,11 @@ FIGURES: dict[str, Figure] = {}
 
 
 def _register(fig: Figure) -> None:
-    """Add ``fig`` to the registry; a claim reading a variant the figure does not run is an error."""
+    """Add ``fig`` to the registry; a claim reading a variant the figure does not run, or a
+    variant's configuration (preset, fields) that does not exist, is an error."""
     names = {v.name for v in fig.variants}
+    for v in fig.variants:
+        figure_configs(fig, v)  # a ConfigError or KeyError naming the field or preset
     for c in fig.claims:
         unknown = set(c.variants) - names
         if unknown:
@@ -382,14 +413,14 @@ _register(
         title="Office floor, 2.5 h exploration",
         world="office_floor",
         duration=9000.0,
-        grid=(40, 40, 36),
+        ratslam={"pose_cells": {"nx": 40, "ny": 40, "n_theta": 36}},
         variants=(
             Variant("default", "rooms B and C show the same scenes (the world file as shipped)"),
             Variant("distinct_rooms", "rooms B and C show their own scenes", lookalikes=False),
             Variant(
                 "lookalike_rooms_paper_map",
                 "the world as shipped, RatSLAM re-entering wherever the pose cells say (the paper's)",
-                reentries="paper",
+                ratslam_preset="paper_reentries",
             ),
         ),
         claims=(
@@ -478,7 +509,7 @@ _register(
         title="Full floor, loops G and H lap one room",
         world="full_floor",
         duration=3600.0,
-        grid=(60, 60, 36),
+        ratslam={"pose_cells": {"nx": 60, "ny": 60, "n_theta": 36}},
         claims=(
             Claim(
                 "g_h_two_pose_cell_loops",
@@ -601,7 +632,7 @@ def _real_log_figure(name: str, title: str, notes: str, map_factor: float, gtsam
         real_log=name,
         fp_rate=0.002,
         variants=(
-            Variant("derived", "configurations derived from the log's scale (what replay does)", derived_scale=True),
+            Variant("derived", "configurations derived from the log's scale (what replay does)", derived=True),
             Variant("simulator_defaults", "the defaults, tuned to the simulated 0.3 m/s robot at 7 Hz"),
         ),
         claims=(

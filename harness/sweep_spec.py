@@ -7,7 +7,8 @@ A spec is a TOML file::
 
     [base]
     world = "small_loop"          # a shipped world or a world file (relative to the spec), or
-    # figure = "fig7"             # a figure: its world, duration, false-positive rate and grid, or
+    # figure = "fig7"             # a figure: its world, duration, false-positive rate and RatSLAM
+                                  # fields (its pose-cell grid), or
     # log = "plaza1"              # a real odometry log: "plaza1", "plaza2" or an observation log
                                   # (CSV with ground truth, relative to the spec)
     duration = 600.0              # simulated seconds (default: the world's or figure's; a log's
@@ -37,8 +38,8 @@ A system's configuration fields are written as in a configuration file
 (:mod:`harness.config_file`): each sub-config is a sub-table, spelt with TOML's bare dotted keys
 ``pose_cells.nx = 40`` (as above) or as a sub-table ``[systems.ratslam.pose_cells]`` with
 ``nx = 40``; both are the same TOML. A quoted ``"pose_cells.nx"`` is one key, not a field, and
-is refused. With a figure as the base, RatSLAM systems take the figure's pose-cell grid unless
-they set their own.
+is refused. With a figure as the base, RatSLAM systems take the figure's RatSLAM fields (its
+pose-cell grid) unless they set their own.
 
 A real log as the base (``log = ...``): its recorded odometry is replayed as it is and only the
 place labels vary; they are synthesised from the log's ground truth by the simulator's scene
@@ -75,7 +76,7 @@ from slamkit.config_fields import ConfigError, replace
 from worlds import load_world
 from worlds.errors import InputError
 
-from .config_file import read_config_table, read_preset, read_toml, where, with_preset
+from .config_file import merged, read_config_table, read_preset, read_toml, where, with_preset
 
 SYSTEM_CONFIGS = {"ratslam": RatSLAMConfig, "gtsam": PoseGraphConfig}
 DESIGNS = ("one-at-a-time", "grid")
@@ -154,7 +155,7 @@ class SweepSpec:
     world: str | None  # world name or file path, as load_world takes it (None: a real log)
     duration: float
     base_fp_rate: float | None  # from a figure (None: the world's own)
-    grid: tuple[int, int, int] | None  # RatSLAM grid from a figure (None: the default)
+    figure_ratslam: dict  # RatSLAM's fields from a figure (its pose-cell grid; empty: the defaults)
     design: str
     axes: dict  # name -> tuple of values, in file order
     seeds: Sequence[int]  # a range for count = N (never expanded before the run count is checked)
@@ -275,7 +276,7 @@ def _read_base(path: Path, raw: dict) -> dict:
     camera = base.get("camera")
     if camera is not None and camera not in CAMERAS:
         _fail(path, "[base] camera", f"expected one of {', '.join(CAMERAS)}, got {camera!r}")
-    fp, grid, duration, log = None, None, None, None
+    fp, figure_ratslam, duration, log = None, {}, None, None
     if "log" in base:
         if camera is not None:
             _fail(path, "[base] camera", "a real log has no simulated world to render")
@@ -292,7 +293,7 @@ def _read_base(path: Path, raw: dict) -> dict:
             _fail(path, "[base] figure", str(e))
         if fig.world is None:
             _fail(path, "[base] figure", f"{fig.name} replays a real log: write log = {fig.real_log!r} instead")
-        world, fp, grid, duration = fig.world, fig.fp_rate, fig.grid, fig.duration
+        world, fp, figure_ratslam, duration = fig.world, fig.fp_rate, fig.ratslam, fig.duration
     else:
         world = base["world"]
         if not isinstance(world, str):
@@ -317,7 +318,7 @@ def _read_base(path: Path, raw: dict) -> dict:
         "camera": camera,
         "duration": duration,
         "fp": fp,
-        "grid": grid,
+        "figure_ratslam": figure_ratslam,
         "lookalikes": lookalikes,
     }
 
@@ -371,7 +372,7 @@ def _read_seeds(path: Path, raw: dict) -> Sequence[int]:
     return tuple(values)
 
 
-def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
+def _read_systems(path: Path, raw: dict, figure_ratslam: dict) -> tuple[SystemSpec, ...]:
     systems = raw.get("systems")
     if not isinstance(systems, dict) or not systems:
         _fail(path, "[systems]", 'missing or empty (add e.g. [systems.ratslam] system = "ratslam")')
@@ -388,9 +389,8 @@ def _read_systems(path: Path, raw: dict, grid) -> tuple[SystemSpec, ...]:
         preset = read_preset(values, at, lambda at, problem: _fail(path, at, problem)) if kind == "ratslam" else None
         fields = read_config_table(cls, values, f"systems.{name}", lambda at, problem: _fail(path, at, problem))
         config = with_preset(cls(), preset) if kind == "ratslam" else cls()
-        if kind == "ratslam" and grid is not None:
-            pose_cells = {"nx": grid[0], "ny": grid[1], "n_theta": grid[2], **fields.get("pose_cells", {})}
-            fields = {**fields, "pose_cells": pose_cells}
+        if kind == "ratslam":  # a figure's fields (its grid) under the system's own
+            fields = merged(figure_ratslam, fields)
         try:
             config = replace(config, fields)
         except ConfigError as e:
@@ -425,7 +425,7 @@ def read_sweep_spec(path) -> SweepSpec:
         names, what = WORLD_AXES, "a simulated world"
     axes = _read_axes(path, raw, names, what)
     seeds = _read_seeds(path, raw)
-    systems = _read_systems(path, raw, base["grid"])
+    systems = _read_systems(path, raw, base["figure_ratslam"])
     if base["camera"] is not None:
         views = {s.name: s.config.view for s in systems if isinstance(s.config, RatSLAMConfig)}
         for name, view in views.items():
@@ -443,7 +443,7 @@ def read_sweep_spec(path) -> SweepSpec:
         world=base["world"],
         duration=base["duration"],
         base_fp_rate=base["fp"],
-        grid=base["grid"],
+        figure_ratslam=base["figure_ratslam"],
         design=design,
         axes=axes,
         seeds=seeds,

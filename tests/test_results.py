@@ -193,7 +193,10 @@ def test_extra_metrics_hook(tmp_path, monkeypatch):
     fig = dataclasses.replace(
         F.get_figure("fig7"),
         name="fig7_hook",
-        variants=(Variant("default", "no bias"), Variant("biased", "1.5 deg/s", pi_bias=1.5)),
+        variants=(
+            Variant("default", "no bias"),
+            Variant("biased", "1.5 deg/s", ratslam={"pose_cells": {"path_integration_bias_deg_s": 1.5}}),
+        ),
         claims=(claim,),
         extra_metrics=hook,
     )
