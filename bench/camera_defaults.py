@@ -147,8 +147,8 @@ def main() -> None:
         for variant in fig.variants:
             if args.variants and variant.name not in args.variants:
                 continue
-            world = variant_world(world0, variant)
-            log = variant_log(fig, variant, world, args.duration or fig.duration, fig.seed)
+            world = variant_world(fig, world0, variant)
+            log = variant_log(fig, world, args.duration or fig.duration, fig.seed)
             base_rs, _, _ = variant_configs(fig, variant, log)
             st = label_stats(log)
             print(f"\n## {name} {variant.name}: scene numbers {st}", flush=True)

@@ -45,12 +45,12 @@ def _figure(name: str):
     fig = FIGURES[name]
     world = load_world(fig.world) if fig.world is not None else None
     variant = fig.variants[0]
-    return fig, variant, figure_streams.variant_world(world, variant)
+    return fig, variant, figure_streams.variant_world(fig, world, variant)
 
 
 def build_stream(name: str, out: str, camera: str | None) -> None:
-    fig, variant, world = _figure(name)
-    log = figure_streams.variant_log(fig, variant, world, None, fig.seed)
+    fig, _, world = _figure(name)
+    log = figure_streams.variant_log(fig, world, None, fig.seed)
     if camera is not None:
         from harness.camera_stream import camera_view_config, camera_views
 

@@ -31,6 +31,7 @@ from ratslam import RatSLAM, RatSLAMConfig
 from worlds import ObservationLog, World, simulate
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
+from .conditions import condition_world
 from .config_file import ConfigOverrides
 from .figures import Figure, Variant, figure_configs, get_figure
 from .results import VariantConfig, VariantResult
@@ -65,37 +66,29 @@ def variant_configs(fig: Figure, variant: Variant, log: ObservationLog) -> tuple
     return rs, pg, ""
 
 
-def stream_key(variant: Variant) -> tuple[float, bool, bool]:
-    """What of a variant shapes its stream (the rest configures its systems): the odometric bias,
-    the look-alike regions, the wheel-odometry errors. Variants with equal keys share a stream."""
-    return (variant.odometric_bias, variant.lookalikes, variant.wheel_errors)
+def stream_key(variant: Variant) -> tuple:
+    """What of a variant shapes its stream (the rest configures its systems): its conditions
+    (:meth:`harness.figures.Variant.conditions`). Variants with equal keys share a stream."""
+    return tuple(sorted(variant.conditions().items()))
 
 
-def variant_world(world: World | None, variant: Variant) -> World | None:
-    """The world a variant runs in: as loaded, with its look-alike regions showing their own scenes
-    (and walls, to the camera) if the variant says so, and with the Plaza-calibrated wheel-odometry
-    errors if it asks for them."""
+def variant_world(fig: Figure, world: World | None, variant: Variant) -> World | None:
+    """The world a variant runs in: as loaded, under the variant's conditions and the figure's
+    false-positive rate (:func:`harness.conditions.condition_world`); None for a real data set."""
     if world is None:
         return world
-    if not variant.lookalikes and world.scenes.lookalikes:
-        world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
-    if not variant.lookalikes and world.camera.same_as:  # the camera's look-alike walls too
-        world = dataclasses.replace(world, camera=dataclasses.replace(world.camera, same_as=()))
-    if variant.wheel_errors:
-        world = dataclasses.replace(world, odometry=dataclasses.replace(world.odometry, **PLAZA_WHEEL_ERRORS))
-    return world
+    return condition_world(world, {"fp_rate": fig.fp_rate, **variant.conditions()})
 
 
-def variant_log(
-    fig: Figure, variant: Variant, world: World | None, duration: float | None, seed: int
-) -> ObservationLog:
-    """The observation stream of a variant: simulated in its world, or the figure's real data set
-    (scene numbers synthesised from its ground truth with ``seed``)."""
-    if fig.real_log is not None:
+def variant_log(fig: Figure, world: World | None, duration: float | None, seed: int) -> ObservationLog:
+    """The observation stream of a variant: simulated in its world (:func:`variant_world`), or the
+    figure's real data set (scene numbers synthesised from its ground truth with ``seed``)."""
+    if world is None:
         from worlds.real_data import load_plaza
 
+        assert fig.real_log is not None
         return load_plaza(fig.real_log, seed=seed, fp_rate=fig.fp_rate, duration=duration)
-    return simulate(world, duration=duration, seed=seed, bias_deg_s=variant.odometric_bias, fp_rate=fig.fp_rate)
+    return simulate(world, duration=duration, seed=seed)
 
 
 def scene_cell_size(world: World | None) -> float:
@@ -173,8 +166,8 @@ def setup_stream(fig: Figure, members: Sequence[Member], options: RunOptions) ->
     member's configurations on it: the figure's and the variant's, the camera's settings if the
     systems see the camera, a configuration file's values on top, and the RatSLAMs that
     ``options.ratslam`` runs beside the run's own."""
-    world = variant_world(options.world, members[0][0])
-    scene_log = variant_log(fig, members[0][0], world, options.duration, options.seed)
+    world = variant_world(fig, options.world, members[0][0])
+    scene_log = variant_log(fig, world, options.duration, options.seed)
     log, views, view = scene_log, None, None
     setups = []
     for variant, run_dir in members:

@@ -67,6 +67,10 @@ class Variant:
     gtsam: ConfigFields = field(default_factory=dict)
     derived: bool = False
 
+    def conditions(self) -> dict[str, Any]:
+        """The variant's stream fields as a condition of its stream (:mod:`harness.conditions`)."""
+        return {"odometric_bias": self.odometric_bias, "lookalikes": self.lookalikes, "wheel_errors": self.wheel_errors}
+
 
 # Systematic wheel-odometry errors calibrated on a real vehicle (worlds.odometry_model), added to a
 # world's odometry: what the figures look like with a real robot's odometry rather than white noise.

@@ -54,6 +54,7 @@ from ratslam.navigation import ExperienceMapNavigator, LocalisingNavigator
 from worlds import ObservationLog, World, load_world, simulate
 from worlds.drive import Drive
 
+from .conditions import condition_world
 from .nav_controller import ControllerParams, RouteController
 from .nav_goals import draw_goal_ticks, route_network_distance
 from .stream import step_stream
@@ -282,9 +283,7 @@ def run_navigation(
         if s not in SYSTEMS:
             raise ValueError(f"unknown system {s!r} (known: {', '.join(SYSTEMS)})")
     hooks = hooks if hooks is not None else NavigationHooks()
-    world = load_world(world_name)
-    if not lookalikes and world.scenes.lookalikes:
-        world = dataclasses.replace(world, scenes=dataclasses.replace(world.scenes, lookalikes=()))
+    world = condition_world(load_world(world_name), {"lookalikes": lookalikes})
     log = simulate(world, duration=exploration_s, seed=seed)
     gt = log.ground_truth()
     first = min(int(FIRST_GOAL_S / world.dt), len(log) - 1)

@@ -46,6 +46,7 @@ _RESULT_SOURCES = (
     "worlds/*.py",
     "worlds/*.toml",
     "harness/sweep_task.py",
+    "harness/conditions.py",
     "harness/metrics.py",
     "harness/evaluate.py",
     "harness/runner.py",

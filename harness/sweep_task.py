@@ -9,7 +9,6 @@ a run's result depends on, so their source is hashed into every run id
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import time
@@ -22,61 +21,15 @@ import numpy as np
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from ratslam import RatSLAM, RatSLAMConfig
 from slamkit.config_fields import from_dict, replace
-from worlds import ObservationLog, World, load_world, simulate
-from worlds.world import CameraSpec, OdometrySpec, SceneSpec
+from worlds import ObservationLog, load_world, simulate
 
 from . import metrics
+from .conditions import condition_scenes, condition_world
 from .config_file import with_preset
 from .evaluate import CLOSURE_TRUE_DISTANCE, closure_quality
 from .runner import dead_reckon
 from .scale import derive_configs
 from .stream import Trace, step_stream
-
-
-def condition_scenes(scenes: SceneSpec, condition: dict) -> SceneSpec:
-    """The scene model with the condition's place-label values (cell size, aliasing, blank cells,
-    false positives); an axis the condition lacks keeps the model's value."""
-    return dataclasses.replace(
-        scenes,
-        cell_size=condition.get("cell_size", scenes.cell_size),
-        alias_rate=condition.get("alias_rate", scenes.alias_rate),
-        blank_rate=condition.get("blank_rate", scenes.blank_rate),
-        false_positive_rate=condition.get("fp_rate", scenes.false_positive_rate),
-    )
-
-
-def condition_odometry(odometry: OdometrySpec, condition: dict) -> OdometrySpec:
-    """The simulated odometry with the condition's yaw-rate bias and noise factor."""
-    scale = condition.get("odometry_noise_scale", 1.0)
-    return dataclasses.replace(
-        odometry,
-        bias_deg_s=condition.get("odometric_bias", odometry.bias_deg_s),
-        noise_trans=odometry.noise_trans * scale,
-        noise_rot=odometry.noise_rot * scale,
-    )
-
-
-def condition_camera(camera: CameraSpec, condition: dict) -> CameraSpec:
-    """The camera with the condition's lighting change and sensor noise."""
-    return dataclasses.replace(
-        camera,
-        lighting_amplitude=condition.get("lighting_amplitude", camera.lighting_amplitude),
-        noise=condition.get("image_noise", camera.noise),
-    )
-
-
-def condition_world(world_name: str, condition: dict, lookalikes: bool = True) -> World:
-    """The world under ``condition`` (scenes, odometry, camera); ``lookalikes`` False (or the
-    condition's ``lookalikes`` 0) gives the world's look-alike regions their own scenes and walls."""
-    world = load_world(world_name)
-    scenes = condition_scenes(world.scenes, condition)
-    camera = condition_camera(world.camera, condition)
-    if not bool(condition.get("lookalikes", lookalikes)):
-        scenes = dataclasses.replace(scenes, lookalikes=())
-        if camera.same_as:
-            camera = dataclasses.replace(camera, same_as=())
-    odometry = condition_odometry(world.odometry, condition)
-    return dataclasses.replace(world, scenes=scenes, odometry=odometry, camera=camera)
 
 
 def condition_log(task: dict) -> ObservationLog:
@@ -90,7 +43,7 @@ def condition_log(task: dict) -> ObservationLog:
 
         base = read_base_log(task["log"], task["duration"])
         return relabelled(base, condition_scenes(PLAZA_SCENES, condition), seed)
-    world = condition_world(task["world"], condition, task.get("lookalikes", True))
+    world = condition_world(load_world(task["world"]), {"lookalikes": task.get("lookalikes", True), **condition})
     log = simulate(world, duration=task["duration"], seed=seed)
     if task.get("camera") is not None:
         from ratslam import ViewConfig

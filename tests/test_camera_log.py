@@ -90,10 +90,10 @@ def test_a_figure_runs_from_the_camera(tmp_path):
 def test_a_variant_without_look_alikes_has_none_to_the_camera():
     """Fig 4's distinct-rooms variant: rooms B and C show their own scenes and their own walls."""
     from harness.figure_streams import variant_world
-    from harness.figures import Variant
+    from harness.figures import Variant, get_figure
     from worlds import load_world
 
-    office = load_world("office_floor")
-    distinct = variant_world(office, Variant("distinct_rooms", "own scenes", lookalikes=False))
+    office, fig4 = load_world("office_floor"), get_figure("fig4")
+    distinct = variant_world(fig4, office, Variant("distinct_rooms", "own scenes", lookalikes=False))
     assert office.camera.same_as and distinct.camera.same_as == () and distinct.scenes.lookalikes == ()
-    assert variant_world(office, Variant("default", "as shipped")).camera.same_as == office.camera.same_as
+    assert variant_world(fig4, office, Variant("default", "as shipped")).camera.same_as == office.camera.same_as
