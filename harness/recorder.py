@@ -201,7 +201,7 @@ class Recorder(_ClosedOnSuccess):
         ticks (default 70: 10 s at 7 Hz) while the maps are small (``map_size``).
     map_size:
         Experiences and keyframes together per multiple of ``every_map`` between re-logs
-        (default 2000): a map of 6,000 places is re-logged every 3 x ``every_map`` ticks.
+        (default 1000): a map of 6,000 places is re-logged every 6 x ``every_map`` ticks.
     every_closures:
         Re-log GTSAM's accepted loop closures every this many ticks (default 700: 100 s at 7 Hz;
         reading the acceptance flags costs the baseline a pass over all its closures).
@@ -229,7 +229,7 @@ class Recorder(_ClosedOnSuccess):
         every_activity: int = 35,
         every_map: int = 70,
         every_closures: int = 700,
-        map_size: int = 2000,
+        map_size: int = 1000,
         flush_every: int = 70,
         align: bool = True,
         world_bounds=None,
