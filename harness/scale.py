@@ -282,6 +282,9 @@ def derive_configs(
         pg_new = pg_new.replace(
             odometry={"sigma_v_m_s": odo.sigma_v_m_s * k_v, "sigma_w_rad_s": odo.sigma_w_rad_s * k_w}
         )
+        # A standstill reads the speed's tick-to-tick noise: its bound scales with the roughness.
+        rs_new = rs_new.replace(yaw_bias={"search_still_m_s": rs.yaw_bias.search_still_m_s * rough_v})
+        pg_new = pg_new.replace(yaw_bias={"search_still_m_s": pg.yaw_bias.search_still_m_s * rough_v})
         # RatSLAM's re-entry fusion, with the pose graph's noise model (module doc)
         rs_new = rs_new.replace(
             reentry=dataclasses.replace(
@@ -309,6 +312,7 @@ def derive_configs(
             if fusion.enabled
             else ""
         )
+        + f"; both yaw_bias.search_still_m_s {rs_new.yaw_bias.search_still_m_s:g}"
         + f"; GTSAM keyframes.distance_m {kf.distance_m:g} m, closures.sigma_xy_m {lc.sigma_xy_m:.3f} m, "
         f"closures.min_travel_m {lc.min_travel_m:g} m, odometry.sigma_v_m_s {odo.sigma_v_m_s:g}, "
         f"odometry.sigma_w_rad_s {odo.sigma_w_rad_s:g}"

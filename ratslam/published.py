@@ -117,6 +117,7 @@ PUBLISHED: dict[str, Reading] = {
     "yaw_bias.search_max_span_s": _inert(300.0),
     "yaw_bias.search_kernel": _inert(3.0),
     "yaw_bias.search_min_gain": _inert(4.0),
+    "yaw_bias.search_still_m_s": _inert(0.04),
     "yaw_bias.revisit_min_travel_m": _inert(4.0),
     "yaw_bias.revisit_sigma_xy_m": _inert(1.0 / math.sqrt(6.0)),
     "yaw_bias.revisit_sigma_heading_deg": _inert(90.0 / math.sqrt(6.0)),

@@ -30,6 +30,14 @@ The search runs outside any graph, on the odometry and scene numbers alone:
   refines it when that gains ``search_min_gain``.
 * The search range must stay below the alias of the loops driven: a loop of T seconds closes
   about as well at b and at b - 360 / T deg/s.
+* A *standstill* (at least ``STILL_MIN_S`` seconds of consecutive ticks with speed at most
+  ``search_still_m_s``; 0 = off) whose mean yaw rate m lies within the search range measures the
+  bias directly, before any place is revisited: the robot is not turning, so the gyro reads its
+  bias plus noise. It adds ``(b - m)^2 / (k^2 s_m^2)`` to C(b) (the small-residual form of a
+  revisit's cost, with s_m the standard error of the mean, at least half a grid step), and a
+  bias it moves the minimum to is adopted when that gains ``search_min_gain`` (a measurement,
+  not a chance agreement of revisits: no noise gain, no two revisits needed). A turn on the
+  spot (the simulator's 60 deg/s) lies outside the range and is ignored.
 
 Why each rule and default is what it is, with the measurements, is in docs/configuration.md
 (pose graph: yaw-rate bias). Only odometry and scene numbers are used, never ground truth;
@@ -57,6 +65,12 @@ REFINE_RAD_S = math.radians(0.25)
 """An adopted bias moves by at most this with only ``search_min_gain`` (a refinement)."""
 MAX_PAIR_RECORDS = 2000
 """Most recent revisits whose residual curves are kept for the agreement check."""
+STILL_MIN_S = 2.0
+"""Shortest standstill (s) whose mean yaw rate is taken as a measurement of the bias."""
+STILL_MODEL_RAD_S = math.radians(0.1)
+"""Least standard error of a standstill's bias: at rest the odometry's yaw rate holds the gyro's
+bias alone, moving also what the wheels or the gyro's scale add (Plaza 2 at rest reads
+-0.397 +- 0.003 deg/s, its revisits -0.29)."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +98,7 @@ class YawBiasSearch:
         sigma_theta_rad: float,
         kernel: float,
         min_gain: float,
+        still_m_s: float = 0.0,
     ) -> None:
         n = int(math.floor(max_rad_s / step_rad_s + 1e-9))
         self.grid = step_rad_s * np.arange(-n, n + 1, dtype=float)
@@ -94,6 +109,9 @@ class YawBiasSearch:
         self._inv_sth2 = 1.0 / sigma_theta_rad**2
         self._k2 = kernel**2
         self._min_gain = min_gain
+        self._still_speed = still_m_s
+        self._still = [0.0, 0.0, 0.0, 0.0]  # current standstill: ticks, seconds, sum w, sum w^2
+        self.standstills = 0  # standstills that added to the cost
         self.cost = np.zeros_like(self.grid)  # C(b) over the grid
         self.revisits = 0  # onsets that scored (had an earlier sighting in range)
         self.bias = 0.0
@@ -125,13 +143,44 @@ class YawBiasSearch:
         ws.append(w)
         self._time += dt
         self._path += abs(v * dt)
+        adopted = None
+        if abs(v) <= self._still_speed:
+            st = self._still
+            st[0] += 1.0
+            st[1] += dt
+            st[2] += w
+            st[3] += w * w
+        elif self._still[0]:
+            adopted = self._close_standstill()
         onset = scene != -1 and scene != self._prev_scene
         self._prev_scene = scene
         if onset or self._time - self._chunk_start >= CHUNK_MAX_S:
             self._close_chunk()
         if not onset:
+            return adopted
+        found = self._onset(scene)
+        return found if found is not None else adopted
+
+    def _close_standstill(self) -> float | None:
+        """Score the standstill that just ended (module doc); a bias it makes adopted, or None."""
+        n, seconds, sw, sww = self._still
+        self._still = [0.0, 0.0, 0.0, 0.0]
+        if seconds < STILL_MIN_S or n < 3:
             return None
-        return self._onset(scene)
+        m = sw / n
+        if abs(m) > self.grid[-1]:
+            return None  # a turn on the spot, not a bias
+        var = max(0.0, (sww - n * m * m) / (n - 1.0))
+        se2 = max(var / n, STILL_MODEL_RAD_S**2)
+        self.cost += (self.grid - m) ** 2 / (self._k2 * se2)
+        self.standstills += 1
+        b, interior = self.best()
+        if not interior or abs(b - self.bias) < 0.5 * self._step:
+            return None
+        if self._at(self.cost, self.bias) - self._at(self.cost, b) < self._min_gain:
+            return None
+        self.bias = b
+        return b
 
     def _close_chunk(self) -> None:
         dts, vs, ws = self._chunk
@@ -193,6 +242,8 @@ class YawBiasSearch:
                     self._prev_scene,
                     self._chunk_start,
                     self._row,
+                    self.standstills,
+                    *self._still,
                 ],
                 dtype=float,
             ),
@@ -212,6 +263,9 @@ class YawBiasSearch:
         sc = s["yb_scalars"]
         self.revisits, self.bias, self._time, self._path, self._theta = int(sc[0]), *(float(v) for v in sc[1:5])
         self._prev_scene, self._chunk_start, self._row = int(sc[5]), float(sc[6]), int(sc[7])
+        # a state saved before standstills were scored has none
+        self.standstills = int(sc[8]) if len(sc) > 8 else 0
+        self._still = [float(x) for x in sc[9:13]] if len(sc) >= 13 else [0.0, 0.0, 0.0, 0.0]
         self.cost = np.array(s["yb_cost"], dtype=float)
         self._prefix = np.array(s["yb_prefix"], dtype=complex)
         chunk = s["yb_chunk"]
@@ -303,6 +357,9 @@ class YawBiasSearchConfig:
     """Geman-McClure width (Mahalanobis units) of a revisit's cost; r < this is an inlier."""
     search_min_gain: float = param(4.0, gt=0)
     """A bias is adopted only if it lowers the summed revisit cost by at least this."""
+    search_still_m_s: float = param(0.04, ge=0)
+    """Speeds at or below this are a standstill, whose mean yaw rate measures the bias (four
+    times the simulator's speed noise; 0 = standstills not used)."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -320,4 +377,5 @@ class YawBiasSearchConfig:
             sigma_theta_rad=sigma_theta_rad,
             kernel=self.search_kernel,
             min_gain=self.search_min_gain,
+            still_m_s=self.search_still_m_s,
         )
