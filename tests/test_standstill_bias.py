@@ -107,3 +107,11 @@ def test_a_state_saved_during_a_standstill_resumes_it(log):
     a = [whole.add(*row) for row in rows[:300]][30:]
     b = [resumed.add(*row) for row in rows[30:300]]
     assert a == b and any(x is not None for x in b)
+
+
+def test_replay_scales_the_standstill_speed_with_the_logs_speed_noise(log):
+    """The log's 0.015 m/s speed noise reads x1.41 of the simulator's (laddered): a standstill is
+    any tick at or below 0.04 x 1.41 m/s, for both systems (harness/scale.py)."""
+    rs, pg, text = derive_configs(log)
+    assert rs.yaw_bias.search_still_m_s == pg.yaw_bias.search_still_m_s == pytest.approx(0.04 * math.sqrt(2.0))
+    assert "yaw_bias.search_still_m_s 0.0565685" in text
