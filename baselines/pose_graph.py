@@ -531,6 +531,16 @@ class PoseGraphSLAM:
         return (p.x(), p.y(), p.theta())
 
     @property
+    def anchor(self) -> tuple[int, tuple[float, float, float]]:
+        """``(keyframe, offset)``: the latest keyframe (-1 before the first) and the odometry
+        integrated since it, in its frame: :attr:`pose` is that keyframe's estimate composed with
+        ``offset``, now or, with the final keyframe poses, as the final graph places this tick."""
+        if not self._kf_ticks:
+            return -1, (0.0, 0.0, 0.0)
+        buf = self._buffer
+        return len(self._kf_ticks) - 1, (float(buf.x), float(buf.y), float(buf.theta))
+
+    @property
     def yaw_bias(self) -> float:
         """Current yaw-rate bias estimate (rad/s): the graph variable's (``yaw_bias.estimate``), the
         searched one (``yaw_bias.search``, 0 until one is adopted), else 0."""

@@ -163,6 +163,12 @@ class ExperienceMap(MapLayers):
         return self._link.view(key)
 
     @property
+    def offset(self) -> tuple[float, float, float]:
+        """The odometry accumulated since the current experience was entered, in its frame."""
+        ax, ay, aphi, _ = self._acc
+        return (float(ax), float(ay), float(aphi))
+
+    @property
     def pose(self) -> tuple[float, float, float]:
         """Current pose: the current experience's map pose composed with the odometry
         accumulated since it was entered (the origin before the first experience)."""

@@ -117,6 +117,15 @@ class RatSLAM:
         return self.experience_map.pose
 
     @property
+    def anchor(self) -> tuple[int, tuple[float, float, float]]:
+        """``(experience, offset)``: the experience the pose hangs from (-1 before the first) and
+        the odometry accumulated since it was entered, in its frame: :attr:`pose` is that
+        experience's map pose composed with ``offset``, now or, with the map's final poses, as the
+        final map places this tick."""
+        em = self.experience_map
+        return em.current, em.offset
+
+    @property
     def yaw_bias(self) -> float:
         """The yaw-rate bias (rad/s) taken off the odometry: 0 until the search adopts one."""
         return self._yaw_bias.bias
