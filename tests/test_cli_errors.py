@@ -12,15 +12,15 @@ from worlds import InputError
 
 def _user_facing_errors():
     from harness.cli import CliError
-    from harness.config_file import ConfigFileError
-    from harness.figures import FigureError
-    from harness.report import ReportError
-    from harness.results import ResultsError
-    from harness.run_dir import OutputError
-    from harness.screenshot import ScreenshotError
-    from harness.sweep_report import SweepReportError
-    from harness.sweep_run import SchedulerError
-    from harness.sweep_spec import SweepSpecError
+    from harness.figures.registry import FigureError
+    from harness.record.screenshot import ScreenshotError
+    from harness.report.results import ResultsError
+    from harness.report.run_report import ReportError
+    from harness.run.config_file import ConfigFileError
+    from harness.run.directory import OutputError
+    from harness.sweeps.report import SweepReportError
+    from harness.sweeps.run import SchedulerError
+    from harness.sweeps.spec import SweepSpecError
     from worlds import ObservationLogError, WorldFileError
     from worlds.bag_import import BagImportError
     from worlds.real_data import RealDataError
@@ -107,7 +107,7 @@ def test_bad_inputs_are_one_line(tmp_path, args, expected):
     (tmp_path / "run" / "metrics.json").write_text("{")
     (tmp_path / "run" / "maps.npz").write_bytes(b"")
     (tmp_path / "sweep").mkdir()
-    from harness.sweep_report import COLUMNS
+    from harness.sweeps.report import COLUMNS
 
     (tmp_path / "sweep" / "runs.csv").write_text(",".join(COLUMNS) + "\nrun-1,small_loop\n")  # cut short
     small_loop = (Path(__file__).parents[1] / "worlds" / "small_loop.toml").read_text()

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from harness.cli import main
-from harness.sweep_report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
-from harness.sweep_run import run_sweep, run_tasks
-from harness.sweep_spec import SweepSpecError, read_sweep_spec
-from harness.sweep_task import run_one
+from harness.sweeps.report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
+from harness.sweeps.run import run_sweep, run_tasks
+from harness.sweeps.spec import SweepSpecError, read_sweep_spec
+from harness.sweeps.task import run_one
 
 SPEC = """
 [base]
