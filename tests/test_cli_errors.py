@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 import harness.cli as cli
+from harness.cli import listing
 from tests.helpers import cli as run_cli
 from worlds import InputError
 
@@ -54,7 +55,7 @@ def test_every_user_facing_error_derives_from_input_error(error, monkeypatch, ca
     def fail(args):
         raise instance
 
-    monkeypatch.setattr(cli, "_cmd_list", fail)
+    monkeypatch.setattr(listing, "command", fail)
     assert cli.main(["list"]) == 2
     err = capsys.readouterr().err
     assert err == "ratslam-harness: error: somewhere: went wrong\n"
@@ -65,7 +66,7 @@ def test_other_exceptions_are_bugs_and_raise(error, monkeypatch):
     def fail(args):
         raise error("a bug")
 
-    monkeypatch.setattr(cli, "_cmd_list", fail)
+    monkeypatch.setattr(listing, "command", fail)
     with pytest.raises(error, match="a bug"):
         cli.main(["list"])
 
