@@ -52,11 +52,6 @@ def write_run(run_dir: Path, run: RunResult) -> None:
     write_report(run_dir, run)
 
 
-def default_workers(n_jobs: int) -> int:
-    """Processes for ``n_jobs`` independent runs: one per job, at most one per free core."""
-    return max(1, min(n_jobs, free_cores()))
-
-
 def run_figure(
     name: str,
     out=None,

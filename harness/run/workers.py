@@ -75,6 +75,11 @@ def free_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
+def default_workers(n_jobs: int) -> int:
+    """Processes for ``n_jobs`` independent runs: one per job, at most one per free core."""
+    return max(1, min(n_jobs, free_cores()))
+
+
 def fork_context():
     """Worker start method: fork where available (no re-import, kernels already loaded)."""
     methods = multiprocessing.get_all_start_methods()

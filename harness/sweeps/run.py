@@ -27,7 +27,7 @@ from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_json, read_text, write_json
 
 from ..run.directory import OutputError, output_errors, remove_stale
-from ..run.workers import pool, sigint_blocked, terminate, warm_kernels
+from ..run.workers import default_workers, pool, sigint_blocked, terminate, warm_kernels
 from .spec import AXES, SweepSpec, system_config, system_fields
 from .task import run_one
 
@@ -287,8 +287,6 @@ def run_sweep(
         if scheduler:
             executor = DaskExecutor(scheduler)
         else:
-            from ..figures.run import default_workers
-
             executor = LocalExecutor(workers or default_workers(len(todo)))
     try:
         with output_errors(out):
