@@ -28,41 +28,36 @@ class OneLineParser(argparse.ArgumentParser):
 # ---------------------------------------------------------------------------- argument types
 
 
-def workers(text: str) -> int:
+def _number(text: str, convert, noun: str):
     try:
-        v = int(text)
+        return convert(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        raise argparse.ArgumentTypeError(f"not {noun}: {text!r}") from None
+
+
+def workers(text: str) -> int:
+    v = _number(text, int, "an integer")
     if v < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
     return v
 
 
 def seed(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    v = _number(text, int, "an integer")
     if not 0 <= v < 2**63:
         raise argparse.ArgumentTypeError(f"must be a non-negative integer below 2**63, got {text!r}")
     return v
 
 
 def positive(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    v = _number(text, float, "a number")
     if not v > 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
     return v
 
 
 def finite(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    v = _number(text, float, "a number")
     if v != v or v in (float("inf"), float("-inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
     return v
