@@ -1,2 +1,2 @@
-"""The simulated camera as a stream: rendered views matched into template numbers, and how well views
-and images tell places apart."""
+"""The camera as a stream: the simulated camera's views or a camera log's images matched into template
+numbers and rotations, and how well views and images tell places apart."""
