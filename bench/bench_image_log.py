@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from harness.log_output import simulate_to_files
-from harness.runner import dead_reckon
+from harness.record.log_output import simulate_to_files
+from harness.run.runner import dead_reckon
 from worlds import load_world
 from worlds.camera import Camera, to_uint8
 from worlds.files import write_tum
@@ -82,8 +82,8 @@ def make_log(kind: str, out: Path, world: str, rate: float, duration: float) -> 
 def draft_check(log_path: Path) -> None:
     """Match a JPEG log's images at the fixed 0.04 with the reduced (draft) decoding and fully
     decoded: seconds, templates and quality against the log's ground truth."""
-    from harness import camera_stream
-    from harness.view_quality import judge
+    from harness.camera import stream as camera_stream
+    from harness.camera.view_quality import judge
     from ratslam import ViewConfig
     from worlds import ObservationLog
 

@@ -2,7 +2,7 @@
 
 Run:  /work/venv/bin/python bench/bench_recorder.py [--ticks 63000] [--sweep] [--real SECONDS]
 
-Synthetic (default): 63,000 ticks (2.5 h at 7 Hz) fed to :class:`harness.recorder.Recorder` by
+Synthetic (default): 63,000 ticks (2.5 h at 7 Hz) fed to :class:`harness.record.recorder.Recorder` by
 stand-in SLAM objects of realistic size -- a 60 x 60 x 36 pose-cell grid with a moving packet,
 snaps and wrap-arounds; an experience map growing linearly to 5,000 experiences and 6,500
 links; a GTSAM estimate growing to 6,000 keyframes and 3,000 proposed closures. Only the
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.recorder import Recorder
+from harness.record.recorder import Recorder
 
 
 class SyntheticRatSLAM:
@@ -144,7 +144,7 @@ def synthetic(n_ticks: int, every_map: int, every_activity: int, out: Path) -> d
 
 def real(duration: float, out: Path) -> dict:
     """The office_floor world through the real systems, with and without the recorder."""
-    from harness.runner import dead_reckon, run_stream
+    from harness.run.runner import dead_reckon, run_stream
     from ratslam import PoseCellConfig, RatSLAMConfig
     from worlds import load_world, simulate
 

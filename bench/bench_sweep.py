@@ -18,9 +18,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from harness.sweep_report import WALL_COLUMNS
-from harness.sweep_run import run_sweep
-from harness.sweep_spec import read_sweep_spec
+from harness.sweeps.report import WALL_COLUMNS
+from harness.sweeps.run import run_sweep
+from harness.sweeps.spec import read_sweep_spec
 
 SPEC = """
 [base]

@@ -12,7 +12,7 @@ For each figure variant's simulated stream (seed 0, the figure's duration) seen 
    pairs within 3 m, and the share within 3 m), and the true heading change (without and with the
    view's rotation);
 2. RatSLAM (the project's defaults) and GTSAM run on it with each setting of :func:`settings`:
-   the scene-number defaults, :func:`harness.camera_stream.camera_configs` (what camera runs
+   the scene-number defaults, :func:`harness.camera.stream.camera_configs` (what camera runs
    use), that derivation with each of its changes undone, and with each rule measured and not
    adopted added to it alone (a habituation giving a template a scene number's injection per
    tick; ``min_age_ticks`` halved and doubled).
@@ -30,12 +30,12 @@ import time
 import numpy as np
 
 from baselines import PoseGraphConfig
-from harness.camera_stream import camera_configs, camera_observations, camera_view_config
-from harness.evaluate import evaluate_stream
-from harness.figure_streams import variant_configs, variant_log, variant_world
-from harness.figures import get_figure
-from harness.runner import run_stream
-from harness.scale import REFERENCE_LABEL_LENGTH_M, REFERENCE_STEP_M, measure_log
+from harness.camera.stream import camera_configs, camera_observations, camera_view_config
+from harness.figures.registry import get_figure
+from harness.figures.streams import variant_configs, variant_log, variant_world
+from harness.report.evaluate import evaluate_stream
+from harness.run.runner import run_stream
+from harness.run.scale import REFERENCE_LABEL_LENGTH_M, REFERENCE_STEP_M, measure_log
 from ratslam import RatSLAMConfig
 from worlds import load_world
 

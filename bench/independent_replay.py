@@ -5,7 +5,7 @@ Run:  python bench/independent_replay.py --out DIR [--logs square,eight] [--seed
 For each log and seed it writes the log (``DIR/logs``), replays it as a user would (``replay
 LOG.csv --out DIR/runs/NAME --no-recording``: configurations derived from the log) and prints the
 whole-run ATE (m) of the written TUM files ``odometry.tum``, ``ratslam.tum`` and ``gtsam.tum``
-(each tick's online estimate) against ``ground_truth.tum``, with :func:`harness.metrics.ate_rmse`
+(each tick's online estimate) against ``ground_truth.tum``, with :func:`harness.report.metrics.ate_rmse`
 (positions after the least-squares SE(2) alignment of the whole trajectory), and the same per
 third of the run (each third aligned on its own).
 
@@ -34,7 +34,7 @@ sys.path.insert(0, str(HERE))
 
 from independent_logs import LOGS, make_log, write_log  # noqa: E402
 
-from harness.metrics import ate_rmse  # noqa: E402
+from harness.report.metrics import ate_rmse  # noqa: E402
 
 FLOOR_RADIUS_M = 1.0
 FLOOR_TRAVEL_M = 5.0

@@ -6,9 +6,9 @@ Run:
 
 ``stream`` writes the figure's first variant's observation log as a figure run builds it
 (simulated with the figure's seed; with ``--camera``, rendered and matched as
-``harness.camera_stream.camera_views`` does, the scene numbers replaced by template numbers).
+``harness.camera.stream.camera_views`` does, the scene numbers replaced by template numbers).
 ``time`` steps a fresh pose graph over that log (its first ``--ticks``), configured as the figure
-run configures it (``harness.camera_stream.camera_configs`` for a camera log, which reads the log's
+run configures it (``harness.camera.stream.camera_configs`` for a camera log, which reads the log's
 labels only), and prints one JSON line: CPU seconds per quarter and in all, keyframes, closures
 proposed and accepted, the iSAM2 updates (with closures, early flushes), the variables they
 re-eliminated and relinearised, the recoveries, and the keyframe ATE of the online estimate
@@ -36,8 +36,8 @@ import numpy as np
 import baselines.optimizers as optimizers
 import baselines.pose_graph as pose_graph
 from baselines import PoseGraphConfig, PoseGraphSLAM
-from harness import figure_streams
-from harness.figures import FIGURES
+from harness.figures import streams as figure_streams
+from harness.figures.registry import FIGURES
 from worlds import ObservationLog, load_world
 
 
@@ -52,7 +52,7 @@ def build_stream(name: str, out: str, camera: str | None) -> None:
     fig, _, world = _figure(name)
     log = figure_streams.variant_log(fig, world, None, fig.seed)
     if camera is not None:
-        from harness.camera_stream import camera_view_config, camera_views
+        from harness.camera.stream import camera_view_config, camera_views
 
         log, _ = camera_views(world, log, camera, fig.seed, camera_view_config(camera))
     log.write_csv(out)
@@ -62,7 +62,7 @@ def figure_config(name: str, log: ObservationLog, camera: str | None) -> PoseGra
     fig, variant, _ = _figure(name)
     rs, pg, _ = figure_streams.variant_configs(fig, variant, log)
     if camera is not None:
-        from harness.camera_stream import camera_configs, camera_view_config
+        from harness.camera.stream import camera_configs, camera_view_config
 
         view = camera_view_config(camera)
         _, pg, _ = camera_configs(log, view, rs.replace(view=view), pg)

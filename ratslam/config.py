@@ -178,7 +178,7 @@ class ReentryFusionConfig:
     """The prediction's covariance may come from the latest re-entry's fused one, carried by the
     odometry (a filter on a known map), where the innovation is likelier under it than under the
     odometry's since the robot was last at the place. On for navigation and in configurations derived
-    for a vehicle's log (harness/scale.py), off for mapping the simulator's streams."""
+    for a vehicle's log (harness/run/scale.py), off for mapping the simulator's streams."""
 
     def __post_init__(self) -> None:
         check_fields(self)

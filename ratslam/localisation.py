@@ -27,7 +27,7 @@ it refused) or that has driven off the routes the map knows:
   that explains clearly more of them than the filter's track, and unambiguously, replaces it;
 - the way back (``lost_m``): after that much path without a sighting that matched, the robot is
   *lost* and :meth:`way_back` is its own dead-reckoned path back to where it last matched (loops
-  erased), which a controller can drive (``harness.nav_controller``) until a sighting matches.
+  erased), which a controller can drive (``harness.navigation.controller``) until a sighting matches.
 
 Measured in the navigation experiment (``ratslam-harness nav office_floor --localise``): see the
 README's Navigation section (the filter alone lost the robot for good on some seeds; both

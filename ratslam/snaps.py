@@ -1,7 +1,7 @@
 """Snaps: the pose-cell activity peak jumping further than ``snap_cells`` in one tick.
 
 Defined once here; :class:`ratslam.RatSLAM` reports ``snapped`` with it and
-``harness.metrics.snap_mask`` counts snaps over a stored peak path with it.
+``harness.report.metrics.snap_mask`` counts snaps over a stored peak path with it.
 """
 
 from __future__ import annotations

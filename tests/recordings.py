@@ -14,7 +14,7 @@ from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
-from harness.runner import dead_reckon
+from harness.run.runner import dead_reckon
 from worlds import simulate
 from worlds.camera import Camera, to_uint8
 

@@ -10,7 +10,7 @@ pytest.importorskip("rosbags")
 from rosbags.rosbag2 import Writer
 from rosbags.typesys import Stores, get_typestore
 
-from harness.runner import dead_reckon
+from harness.run.runner import dead_reckon
 from tests.helpers import cli
 from worlds import simulate
 from worlds.bag_import import BagImportError, import_bag

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from harness.camera_stream import match_camera_log, read_image
-from harness.figure_run import replay
-from harness.log_output import simulate_to_files
+from harness.camera.stream import match_camera_log, read_image
+from harness.figures.run import replay
+from harness.record.log_output import simulate_to_files
 from ratslam import ViewConfig
 from tests.helpers import cli
 from worlds import ObservationLog, ObservationLogError
@@ -74,7 +74,7 @@ def test_cli_simulate_camera(tmp_path):
 
 def test_a_figure_runs_from_the_camera(tmp_path):
     """``run FIG --camera forward``: both systems on the matcher's template numbers; the run says so."""
-    from harness.figure_run import run_figure
+    from harness.figures.run import run_figure
 
     out = run_figure(
         "fig7", tmp_path / "fig7", duration=40.0, show_progress=False, variants=(), workers=1, camera="forward"
@@ -89,8 +89,8 @@ def test_a_figure_runs_from_the_camera(tmp_path):
 
 def test_a_variant_without_look_alikes_has_none_to_the_camera():
     """Fig 4's distinct-rooms variant: rooms B and C show their own scenes and their own walls."""
-    from harness.figure_streams import variant_world
-    from harness.figures import Variant, get_figure
+    from harness.figures.registry import Variant, get_figure
+    from harness.figures.streams import variant_world
     from worlds import load_world
 
     office, fig4 = load_world("office_floor"), get_figure("fig4")

@@ -1,5 +1,5 @@
 """A camera run's recording (the view and its matched template each tick) and the configurations a
-camera stream gets (:func:`harness.camera_stream.camera_configs`)."""
+camera stream gets (:func:`harness.camera.stream.camera_configs`)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 from rerun.chunk import RrdReader
 
 from baselines import PoseGraphConfig
-from harness.camera_stream import (
+from harness.camera.stream import (
     camera_configs,
     camera_view_config,
     camera_views,
@@ -25,9 +25,9 @@ from worlds import load_world, simulate
 @pytest.fixture(scope="module")
 def camera_run(tmp_path_factory):
     """20 s of the small loop seen by the forward camera, through both systems, recorded."""
-    from harness.progress import Progress
-    from harness.recorder import recorder_factory
-    from harness.stream_run import run_single_stream
+    from harness.figures.stream_run import run_single_stream
+    from harness.record.recorder import recorder_factory
+    from harness.run.progress import Progress
 
     world = load_world("small_loop")
     log = simulate(world, duration=20.0, seed=0)
@@ -78,8 +78,8 @@ def test_the_recording_shows_each_view_and_its_template(camera_run):
 
 def test_a_scene_number_recording_has_no_camera(tmp_path):
     """A run of scene numbers records no camera entity (its recording as before)."""
-    from harness.recorder import recorder_factory
-    from harness.runner import dead_reckon
+    from harness.record.recorder import recorder_factory
+    from harness.run.runner import dead_reckon
 
     world = load_world("small_loop")
     log = simulate(world, duration=5.0, seed=0)
@@ -126,7 +126,7 @@ def test_camera_configs_from_the_stream_alone():
 def test_a_bad_view_setting_in_a_configuration_file_is_one_line(tmp_path):
     """The matcher's settings in a configuration file: a bad value is one line naming the file,
     the table and the field."""
-    from harness.config_file import ConfigFileError, read_config_file
+    from harness.run.config_file import ConfigFileError, read_config_file
 
     p = tmp_path / "c.toml"
     p.write_text("[ratslam.view]\nmatch_threshold = -1\n")

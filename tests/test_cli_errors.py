@@ -6,21 +6,22 @@ from pathlib import Path
 import pytest
 
 import harness.cli as cli
+from harness.cli import listing
 from tests.helpers import cli as run_cli
 from worlds import InputError
 
 
 def _user_facing_errors():
     from harness.cli import CliError
-    from harness.config_file import ConfigFileError
-    from harness.figures import FigureError
-    from harness.report import ReportError
-    from harness.results import ResultsError
-    from harness.run_dir import OutputError
-    from harness.screenshot import ScreenshotError
-    from harness.sweep_report import SweepReportError
-    from harness.sweep_run import SchedulerError
-    from harness.sweep_spec import SweepSpecError
+    from harness.figures.registry import FigureError
+    from harness.record.screenshot import ScreenshotError
+    from harness.report.results import ResultsError
+    from harness.report.run_report import ReportError
+    from harness.run.config_file import ConfigFileError
+    from harness.run.directory import OutputError
+    from harness.sweeps.report import SweepReportError
+    from harness.sweeps.run import SchedulerError
+    from harness.sweeps.spec import SweepSpecError
     from worlds import ObservationLogError, WorldFileError
     from worlds.bag_import import BagImportError
     from worlds.real_data import RealDataError
@@ -54,7 +55,7 @@ def test_every_user_facing_error_derives_from_input_error(error, monkeypatch, ca
     def fail(args):
         raise instance
 
-    monkeypatch.setattr(cli, "_cmd_list", fail)
+    monkeypatch.setattr(listing, "command", fail)
     assert cli.main(["list"]) == 2
     err = capsys.readouterr().err
     assert err == "ratslam-harness: error: somewhere: went wrong\n"
@@ -65,7 +66,7 @@ def test_other_exceptions_are_bugs_and_raise(error, monkeypatch):
     def fail(args):
         raise error("a bug")
 
-    monkeypatch.setattr(cli, "_cmd_list", fail)
+    monkeypatch.setattr(listing, "command", fail)
     with pytest.raises(error, match="a bug"):
         cli.main(["list"])
 
@@ -107,7 +108,7 @@ def test_bad_inputs_are_one_line(tmp_path, args, expected):
     (tmp_path / "run" / "metrics.json").write_text("{")
     (tmp_path / "run" / "maps.npz").write_bytes(b"")
     (tmp_path / "sweep").mkdir()
-    from harness.sweep_report import COLUMNS
+    from harness.sweeps.report import COLUMNS
 
     (tmp_path / "sweep" / "runs.csv").write_text(",".join(COLUMNS) + "\nrun-1,small_loop\n")  # cut short
     small_loop = (Path(__file__).parents[1] / "worlds" / "small_loop.toml").read_text()

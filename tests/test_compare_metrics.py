@@ -1,8 +1,8 @@
-"""harness.compare_metrics: the check that a refactoring leaves every figure's metrics unchanged."""
+"""harness.report.compare_metrics: the check that a refactoring leaves every figure's metrics unchanged."""
 
 import json
 
-from harness.compare_metrics import compare_trees, differences
+from harness.report.compare_metrics import compare_trees, differences
 
 BASE = {
     "variants": {"default": {"ate": {"odometry": 0.15, "gtsam": 0.09}, "timing": {"ratslam_s": 1.1}}},

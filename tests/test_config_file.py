@@ -6,7 +6,7 @@ import json
 import pytest
 
 from baselines import BackendConfig, KeyframeConfig, PoseGraphConfig, YawBiasConfig
-from harness.config_file import ConfigFileError, config_toml, read_config_file
+from harness.run.config_file import ConfigFileError, config_toml, read_config_file
 from ratslam import ExperienceMapConfig, PoseCellConfig, RatSLAMConfig
 from tests.helpers import cli
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness import fidelity
+from harness.figures import fidelity
 from ratslam import RatSLAM, RatSLAMConfig
 from ratslam.published import departures
 

@@ -3,7 +3,7 @@
 Every figure runs once per session (module fixture) at the paper's duration unless stated in
 ``DURATIONS``; every claim of the figure registry is one test, named by the figure and claim
 (the claim's statement is its docstring in the registry, repeated in the report). The
-thresholds inside the claims come from measured runs with a margin; see ``harness/figures.py``.
+thresholds inside the claims come from measured runs with a margin; see ``harness/figures/registry.py``.
 """
 
 import json
@@ -11,8 +11,8 @@ import json
 import numpy as np
 import pytest
 
-from harness.figure_run import run_figure
-from harness.figures import FIGURES
+from harness.figures.registry import FIGURES
+from harness.figures.run import run_figure
 
 # Durations used by the suite: the paper's, except where the suite's 10-minute budget does not
 # allow it (stated here, and the committed reports under reports/ are at the paper's length).

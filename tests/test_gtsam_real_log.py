@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
-from harness import metrics as M
-from harness.runner import dead_reckon
+from harness.report import metrics as M
+from harness.run.runner import dead_reckon
 from worlds.real_data import load_plaza
 
 pytestmark = pytest.mark.slow  # 15-minute streams or real logs end to end
@@ -53,11 +53,11 @@ def test_plaza_import_follows_the_observation_log_contract(plaza1_start):
 
 def test_derived_pose_graph_beats_plaza1_odometry():
     """The whole of Plaza 1 (32 min, 1.9 km) with the configuration derive_configs gives: the
-    odometry's heading does not drift, and the revisit test (harness/scale.py) makes the pose
+    odometry's heading does not drift, and the revisit test (harness/run/scale.py) makes the pose
     graph trust it (odometry.sigma_w_rad_s 0.005 instead of the rates' roughness 0.02), so scene
     closures no longer bend it. Measured (seed 0): keyframes 0.49 m, online 0.89 m, odometry
     1.47 m; with the roughness noise 1.58 / 1.07 m."""
-    from harness.scale import derive_configs
+    from harness.run.scale import derive_configs
 
     log = load_plaza("plaza1", seed=0)
     _, cfg, _ = derive_configs(log)

@@ -18,8 +18,8 @@ pytest.importorskip("rosbags")
 
 from PIL import Image
 
-from harness.camera_stream import match_camera_log, read_image
-from harness.figure_run import replay
+from harness.camera.stream import match_camera_log, read_image
+from harness.figures.run import replay
 from ratslam import ViewConfig
 from tests.recordings import T0, Bag, png, simulated_run, write_run_bag, write_tum, write_video
 from worlds import ObservationLog
@@ -63,9 +63,9 @@ def test_a_bag_replays_end_to_end_as_the_rendered_camera_log(run, tmp_path, caps
     """Imported from a bag, the images give the matcher the same templates as the rendered frames,
     and both systems' trajectories (ATE against the bag's ground truth, a report) are those of the
     same run written by ``simulate --camera``; the bag's recording shows each tick's image."""
-    from harness.camera_stream import write_images
+    from harness.camera.stream import write_images
     from harness.cli import main
-    from harness.recorder import recorder_factory
+    from harness.record.recorder import recorder_factory
 
     from .test_camera_recording import _images
 

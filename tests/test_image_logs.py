@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from harness.camera_stream import derived_template_size, match_camera_log, read_image
+from harness.camera.stream import derived_template_size, match_camera_log, read_image
 from harness.cli import main
-from harness.figure_run import replay
-from harness.runner import dead_reckon
+from harness.figures.run import replay
+from harness.run.runner import dead_reckon
 from ratslam import ViewConfig
 from worlds import InputError, ObservationLog, ObservationLogError, simulate
 from worlds.camera import Camera, to_uint8
@@ -88,7 +88,7 @@ def test_a_configured_threshold_and_template_are_kept(robot, tmp_path):
     out = tmp_path / "log.csv"
     paired = import_image_folder(robot / "frames", robot / "odom.tum")
     write_image_log(out, paired.odometry, paired.images)  # no camera.toml: the configuration's field of view
-    from harness.config_file import read_config_file
+    from harness.run.config_file import read_config_file
 
     run = replay(
         out, tmp_path / "run", show_progress=False, recorder_factory=None, config=read_config_file(tmp_path / "c.toml")

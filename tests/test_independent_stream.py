@@ -5,9 +5,9 @@ positives), replayed as a user's log is (the configuration derived from it)."""
 import numpy as np
 import pytest
 
-from harness import metrics as M
-from harness.runner import dead_reckon
-from harness.scale import derive_configs
+from harness.report import metrics as M
+from harness.run.runner import dead_reckon
+from harness.run.scale import derive_configs
 from ratslam import RatSLAM
 
 from .tour_stream import waypoint_tour

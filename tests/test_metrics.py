@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from harness import metrics as M
+from harness.report import metrics as M
 from worlds.files import read_tum, write_tum
 
 

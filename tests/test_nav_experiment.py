@@ -11,8 +11,8 @@ import pytest
 from rerun.chunk import RrdReader
 
 import ratslam.navigation as rnav
-from harness.nav_experiment import run_nav_experiment
-from harness.navigation import navigation_ratslam_config
+from harness.navigation.closed_loop import navigation_ratslam_config
+from harness.navigation.experiment import run_nav_experiment
 from ratslam import RatSLAM
 from tests.helpers import cli as run_cli
 from worlds import simulate
@@ -148,7 +148,7 @@ def test_navigating_the_saved_map_in_localisation_mode(tmp_path):
     stepped), and the run says so; the same exploration and goals as with RatSLAM stepping
     (``--stepping``); the CLI's default and both flags."""
     from harness.cli import build_parser
-    from harness.navigation import run_navigation
+    from harness.navigation.closed_loop import run_navigation
 
     loc = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",), trace=True)
     slam = run_navigation("small_loop", 120.0, 2, 1, systems=("ratslam",), ratslam_localise=False)
@@ -172,7 +172,7 @@ def test_ratslam_map_reaches_the_goals_on_office_floor():
     (look-alike rooms B and C), seed 0, the committed report's run, RatSLAM's side only (measured:
     50 of 50, median 1.01; seeds 0-7 reach 48-50, README). The map fixed after the exploration and
     localised on (the default)."""
-    from harness.navigation import run_navigation
+    from harness.navigation.closed_loop import run_navigation
 
     result = run_navigation("office_floor", 9000.0, 50, 0, systems=("ratslam",))
     nav = result.systems["ratslam"]

@@ -13,9 +13,9 @@ import pytest
 
 import baselines.navigation as bnav
 import ratslam.navigation as rnav
-from harness.nav_controller import ControllerParams, RouteController
-from harness.nav_goals import draw_goal_ticks, route_network_distance
-from harness.navigation import run_navigation
+from harness.navigation.closed_loop import run_navigation
+from harness.navigation.controller import ControllerParams, RouteController
+from harness.navigation.goals import draw_goal_ticks, route_network_distance
 from ratslam import RatSLAM, RatSLAMConfig
 from slamkit.routes import quickest_route
 from worlds import load_world, simulate
@@ -201,7 +201,7 @@ def test_controller_backs_off_a_wall_it_cannot_see_and_replans():
 
 def test_navigation_ratslam_config_mirrors_the_pose_graph_noise():
     from baselines import PoseGraphConfig
-    from harness.navigation import navigation_ratslam_config
+    from harness.navigation.closed_loop import navigation_ratslam_config
 
     pg = PoseGraphConfig()
     rs = navigation_ratslam_config(pg)

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.config_file import ConfigFileError, read_config_file
-from harness.stream_run import ratslam_settings
-from harness.sweep_spec import SweepSpecError, read_sweep_spec
+from harness.figures.stream_run import ratslam_settings
+from harness.run.config_file import ConfigFileError, read_config_file
+from harness.sweeps.spec import SweepSpecError, read_sweep_spec
 from ratslam import PAPER_REENTRIES, PoseCellConfig, RatSLAMConfig
 from ratslam.published import PUBLISHED, SCALE, departures, field_paths, markdown_table
 
@@ -126,7 +126,7 @@ def test_a_report_redraws_from_what_is_committed(tmp_path):
     import shutil
 
     from harness.cli import main
-    from harness.figure_run import run_figure
+    from harness.figures.run import run_figure
 
     out = run_figure("fig7", out=tmp_path / "run", duration=40.0, show_progress=False, workers=1)
     doc = json.loads((out / "metrics.json").read_text())

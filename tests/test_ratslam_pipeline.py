@@ -140,10 +140,10 @@ def test_strong_familiar_view_far_from_the_packet_produces_a_snap():
 
 def test_snapped_is_the_snap_metric_across_the_wrap():
     """On a 24 x 24 grid the corridor run crosses the grid's edges and snaps once: the
-    pipeline's per-tick ``snapped`` equals ``harness.metrics.snap_mask`` of its peak path, and
+    pipeline's per-tick ``snapped`` equals ``harness.report.metrics.snap_mask`` of its peak path, and
     both count a crossing of an edge by its short way round (a naive difference would make every
     crossing a snap)."""
-    from harness.metrics import snap_mask
+    from harness.report.metrics import snap_mask
 
     cfg = RatSLAMConfig().replace(pose_cells={"nx": 24, "ny": 24})
     slam = RatSLAM(cfg)

@@ -6,9 +6,9 @@ map) and clearly on Plaza 2 (whose heading drifts)."""
 import numpy as np
 import pytest
 
-from harness import metrics as M
-from harness.runner import dead_reckon
-from harness.scale import derive_configs
+from harness.report import metrics as M
+from harness.run.runner import dead_reckon
+from harness.run.scale import derive_configs
 from ratslam import RatSLAM
 from worlds.real_data import load_plaza
 
@@ -49,7 +49,7 @@ def test_plaza1_without_the_fusion_is_worse_than_odometry():
 
 
 def test_plaza1_online_pose_is_better_with_the_fixes_chained():
-    """The derived configuration chains the re-entries' fixes (harness/scale.py): the online pose,
+    """The derived configuration chains the re-entries' fixes (harness/run/scale.py): the online pose,
     without it worse than the dead reckoning, is no worse with it. Measured, label seed 0, online
     ATE: 1.523 m not chained, 1.466 m chained, odometry 1.472 m (seeds 0-7: better on every seed)."""
     log = load_plaza("plaza1", seed=0)

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from harness.metrics import ate_rmse
+from harness.report.metrics import ate_rmse
 from ratslam import RatSLAM, RatSLAMConfig
 from ratslam.experience_map import ExperienceMap
 

@@ -16,7 +16,7 @@ import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
-from harness.recorder import C_SNAP, Recorder
+from harness.record.recorder import C_SNAP, Recorder
 
 GRID = (20, 20, 8)
 N_TICKS = 300
@@ -284,7 +284,7 @@ def test_abort_leaves_nothing(tmp_path):
 def test_stream_recorder_is_aborted_on_an_error(tmp_path):
     """Used as a context manager, a StreamRecorder closes on success and, on an error inside the
     block, removes its partial file: no recording.rrd, nothing half-written."""
-    from harness.recorder import StreamRecorder
+    from harness.record.recorder import StreamRecorder
 
     n = 5
     odo = np.zeros((n, 3))
@@ -303,10 +303,10 @@ def test_stream_recorder_is_aborted_on_an_error(tmp_path):
 
 def test_a_failing_run_leaves_no_recording(tmp_path, monkeypatch):
     """A run that fails part-way through its stream aborts the recording it was writing."""
-    import harness.stream_run as fr
+    import harness.figures.stream_run as fr
     from baselines import PoseGraphConfig
-    from harness.progress import Progress
-    from harness.recorder import recorder_factory
+    from harness.record.recorder import recorder_factory
+    from harness.run.progress import Progress
     from ratslam import RatSLAMConfig
     from worlds import load_world, simulate
 
@@ -347,8 +347,8 @@ def test_bad_config_is_one_line_value_error(tmp_path):
 @pytest.fixture(scope="module")
 def real_run(tmp_path_factory):
     """60 s of the small loop through both real systems, recorded by the runner's callback."""
-    from harness.recorder import recorder_factory
-    from harness.runner import dead_reckon, run_stream
+    from harness.record.recorder import recorder_factory
+    from harness.run.runner import dead_reckon, run_stream
     from ratslam import RatSLAMConfig
     from worlds import load_world, simulate
 
@@ -383,7 +383,7 @@ def test_recording_of_a_real_run(real_run):
 def test_screenshot_shows_every_panel(real_run, tmp_path):
     """Opened headless in the viewer, the default blueprint shows its four views without a
     reported problem, at the last tick."""
-    from harness.screenshot import ScreenshotError, screenshot
+    from harness.record.screenshot import ScreenshotError, screenshot
 
     path, log, _ = real_run
     try:
@@ -398,7 +398,7 @@ def test_screenshot_shows_every_panel(real_run, tmp_path):
 
 
 def test_screenshot_errors_are_one_line(tmp_path, monkeypatch):
-    import harness.screenshot as shot
+    import harness.record.screenshot as shot
 
     with pytest.raises(shot.ScreenshotError, match="no such recording"):
         shot.screenshot(tmp_path / "missing.rrd", tmp_path / "x.png")

@@ -8,10 +8,10 @@ import math
 
 import pytest
 
-from harness import figures as F
-from harness.figure_run import replay, run_figure
-from harness.figures import Claim, Figure, NotMeasurable, Variant, evaluate_claims
-from harness.results import PerTrajectory, ResultsError, RunResult, Timing, VariantResult
+from harness.figures import registry as F
+from harness.figures.registry import Claim, Figure, NotMeasurable, Variant, evaluate_claims
+from harness.figures.run import replay, run_figure
+from harness.report.results import PerTrajectory, ResultsError, RunResult, Timing, VariantResult
 
 
 def _assert_round_trip(path):
@@ -54,7 +54,7 @@ def test_replay_metrics_round_trip_with_and_without_ground_truth(tmp_path):
     assert "No ground truth" in (out / "report.md").read_text()
     # the report is redrawn from maps.npz alone (the trajectories are not needed); a damaged
     # maps.npz makes it a one-line error, not a traceback
-    from harness.report import ReportError, write_report
+    from harness.report.run_report import ReportError, write_report
 
     (tmp_path / "replay" / "trajectories" / "odometry.tum").write_text("1 2 3\n")
     write_report(tmp_path / "replay")

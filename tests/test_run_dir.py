@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from harness.run_dir import OutputError, staged_directory
+from harness.run.directory import OutputError, staged_directory
 from tests.helpers import cli
 
 LOG = "t,dt,v_trans,v_rot,scene_id\n" + "".join(f"{0.1 * (k + 1):.1f},0.1,0.3,0.0,{k // 10}\n" for k in range(60))

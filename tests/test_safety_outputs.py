@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.run_dir import MANIFEST, read_manifest
+from harness.run.directory import MANIFEST, read_manifest
 from tests.helpers import cli
 
 ROOT = Path(__file__).resolve().parents[1]

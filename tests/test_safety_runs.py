@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.budget import MAX_POSE_CELLS, BudgetError, check_grid, check_ticks
+from harness.run.budget import MAX_POSE_CELLS, BudgetError, check_grid, check_ticks
 from tests.helpers import cli
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -198,7 +198,7 @@ def test_a_log_time_of_1e308_never_reaches_metrics_json(tmp_path):
 
 
 def test_non_finite_metrics_are_written_as_null_with_the_reason(tmp_path):
-    from harness.results import RunResult
+    from harness.report.results import RunResult
 
     (tmp_path / "log.csv").write_text(LOG)
     assert cli("replay", "log.csv", "--out", "r", "--quiet", "--no-recording", cwd=tmp_path).returncode == 0
@@ -280,19 +280,19 @@ def test_former_tracebacks_are_one_line(tmp_path, args, expected):
 
 # ------------------------------------------------------------------------ compile once
 def test_warm_kernels_compiles_every_kernel_a_run_uses():
-    """After :func:`harness.workers.warm_kernels` in this process (what a figure does before it
+    """After :func:`harness.run.workers.warm_kernels` in this process (what a figure does before it
     forks its workers), a run compiles nothing more: the workers inherit every kernel."""
     code = """
 import numba.core.registry as reg
 import ratslam.map_kernels as M, ratslam.pose_cell_kernels as K
-from harness.workers import warm_kernels
+from harness.run.workers import warm_kernels
 def sigs():
     return {n: len(f.signatures) for m in (K, M) for n, f in vars(m).items() if isinstance(f, reg.CPUDispatcher)}
 warm_kernels()
 before = sigs()
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
-from harness.runner import run_stream
+from harness.run.runner import run_stream
 from worlds import simulate
 run_stream(simulate("small_loop", duration=120, seed=1, fp_rate=0.02), RatSLAMConfig(), PoseGraphConfig())
 after = sigs()

@@ -1,4 +1,4 @@
-"""Configurations derived from a log's speed, tick rate and labels (harness/scale.py): the
+"""Configurations derived from a log's speed, tick rate and labels (harness/run/scale.py): the
 simulator's own streams get exactly the defaults; other scales get scaled fields; ground truth
 never enters."""
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from baselines import PoseGraphConfig
-from harness import scale
-from harness.scale import RevisitNoise, derive_configs, ladder, measure_log, revisit_noise, trans_gain
+from harness.run import scale
+from harness.run.scale import RevisitNoise, derive_configs, ladder, measure_log, revisit_noise, trans_gain
 from ratslam import RatSLAMConfig, YawBiasConfig
 from worlds import ObservationLog, simulate
 

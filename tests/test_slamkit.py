@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from baselines import PoseGraphConfig, PoseGraphSLAM
-from harness.config_file import read_config_file
+from harness.run.config_file import read_config_file
 from ratslam import RatSLAMConfig
 from slamkit import routes
 from slamkit.poses import between, compose, range_bearing, wrap_angle, wrap_scalar

@@ -16,8 +16,8 @@ import pytest
 
 from baselines import PoseGraphSLAM
 from baselines.pose_graph import bias_search
-from harness import metrics as M
-from harness.scale import derive_configs
+from harness.report import metrics as M
+from harness.run.scale import derive_configs
 from ratslam import RatSLAM
 from worlds import ObservationLog
 
@@ -111,7 +111,7 @@ def test_a_state_saved_during_a_standstill_resumes_it(log):
 
 def test_replay_scales_the_standstill_speed_with_the_logs_speed_noise(log):
     """The log's 0.015 m/s speed noise reads x1.41 of the simulator's (laddered): a standstill is
-    any tick at or below 0.04 x 1.41 m/s, for both systems (harness/scale.py)."""
+    any tick at or below 0.04 x 1.41 m/s, for both systems (harness/run/scale.py)."""
     rs, pg, text = derive_configs(log)
     assert rs.yaw_bias.search_still_m_s == pg.yaw_bias.search_still_m_s == pytest.approx(0.04 * math.sqrt(2.0))
     assert "yaw_bias.search_still_m_s 0.0565685" in text

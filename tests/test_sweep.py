@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from harness.cli import main
-from harness.sweep_report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
-from harness.sweep_run import run_sweep, run_tasks
-from harness.sweep_spec import SweepSpecError, read_sweep_spec
-from harness.sweep_task import run_one
+from harness.sweeps.report import WALL_COLUMNS, read_runs_csv, rebuild_sweep_report
+from harness.sweeps.run import run_sweep, run_tasks
+from harness.sweeps.spec import SweepSpecError, read_sweep_spec
+from harness.sweeps.task import run_one
 
 SPEC = """
 [base]
@@ -233,3 +233,13 @@ def test_a_sweep_into_another_specs_folder_says_so(tmp_path):
         run_sweep(read_sweep_spec(spec), out, workers=1, log=lines.append)
         assert any("another spec's" in line for line in lines) == warned, lines
         assert (out / "sweep.toml").read_text() == spec.read_text()
+
+
+def test_code_version_reads_every_result_source():
+    """Every source a run's result depends on is there to hash: a module moved or renamed without
+    its pattern would drop out of the code version silently, and a changed result would reuse the
+    old runs."""
+    from harness.sweeps.run import _RESULT_SOURCES
+
+    root = Path(__file__).resolve().parents[1]
+    assert [p for p in _RESULT_SOURCES if not list(root.glob(p))] == []

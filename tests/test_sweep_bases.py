@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from harness.sweep_run import run_tasks
-from harness.sweep_spec import SweepSpecError, read_sweep_spec
-from harness.sweep_task import condition_log, run_one, system_configs
+from harness.sweeps.run import run_tasks
+from harness.sweeps.spec import SweepSpecError, read_sweep_spec
+from harness.sweeps.task import condition_log, run_one, system_configs
 from worlds import simulate
 
 LOG_SPEC = """

@@ -4,7 +4,7 @@ odometry it is given, holds labels to their ticks, and rejects bad files in one 
 import numpy as np
 import pytest
 
-from harness.runner import dead_reckon
+from harness.run.runner import dead_reckon
 from tests.helpers import cli
 from worlds import simulate
 from worlds.files import write_tum

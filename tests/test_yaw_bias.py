@@ -49,7 +49,7 @@ def search(stream, **changes):
 def gt_ate(slam, stream):
     gt = stream[4]
     k = slam.keyframe_ticks
-    from harness.metrics import ate_rmse
+    from harness.report.metrics import ate_rmse
 
     return ate_rmse(slam.keyframe_poses[:, :2], gt[k, :2])
 

@@ -5,7 +5,7 @@ Header ``t,dt,v_trans,v_rot,scene_id`` and optionally the ground-truth columns
 out, a log with ground truth then has no tick labelled a false positive). A camera log has an
 ``image`` column instead of ``scene_id``: each tick's image file (PNG or JPEG), its path relative
 to the log file; its scene numbers are -1 until a view matcher has turned the images into template
-numbers (``harness.camera_stream.match_camera_log``). An optional ``view_rotation`` column (rad)
+numbers (``harness.camera.stream.match_camera_log``). An optional ``view_rotation`` column (rad)
 carries each view's rotation relative to its template (``RatSLAM.step``'s ``view_rotation``). Reading validates
 columns, types, finite values and monotonic time, and reports a problem as one line naming the
 file, the line, the column and what is wrong (:class:`ObservationLogError`). Writing is atomic
