@@ -5,7 +5,8 @@ Run:  python bench/independent_replay.py --out DIR [--logs square,eight] [--seed
 For each log and seed it writes the log (``DIR/logs``), replays it as a user would (``replay
 LOG.csv --out DIR/runs/NAME --no-recording``: configurations derived from the log) and prints the
 whole-run ATE (m) of the written TUM files ``odometry.tum``, ``ratslam.tum`` and ``gtsam.tum``
-(each tick's online estimate) against ``ground_truth.tum``, with :func:`harness.report.metrics.ate_rmse`
+(each tick's online estimate) and ``ratslam_final.tum`` and ``gtsam_final.tum`` (each tick as the
+final map places it) against ``ground_truth.tum``, with :func:`harness.report.metrics.ate_rmse`
 (positions after the least-squares SE(2) alignment of the whole trajectory), and the same per
 third of the run (each third aligned on its own).
 
@@ -38,7 +39,7 @@ from harness.report.metrics import ate_rmse  # noqa: E402
 
 FLOOR_RADIUS_M = 1.0
 FLOOR_TRAVEL_M = 5.0
-SYSTEMS = ("odometry", "ratslam", "gtsam")
+SYSTEMS = ("odometry", "ratslam", "gtsam", "ratslam_final", "gtsam_final")
 
 
 def read_tum(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -93,7 +94,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--no-stops", action="store_true", help="the robot never stands still")
     ap.add_argument("--harness", default=str(Path(sys.executable).with_name("ratslam-harness")))
     args = ap.parse_args(argv)
-    print("log     seed  first revisit s  floor  | whole-run ATE m (thirds): odometry  ratslam  gtsam")
+    print("log     seed  first revisit s  floor  | whole-run ATE m (thirds): odometry  ratslam  gtsam  ratslam_final  gtsam_final")
     for name in args.logs.split(","):
         for seed in (int(s) for s in args.seeds.split(",")):
             spec = replace(LOGS[name], seed=seed)

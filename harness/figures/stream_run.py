@@ -167,6 +167,9 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
     write_tum(traj / "odometry.tum", t, *res.odometry.T)
     write_tum(traj / "ratslam.tum", t, *res.ratslam_pose.T)
     write_tum(traj / "gtsam.tum", t, *res.gtsam_pose.T)
+    for name, final in (("ratslam_final", res.ratslam_final), ("gtsam_final", res.gtsam_final)):
+        if final is not None:  # each tick as the final map places it
+            write_tum(traj / f"{name}.tum", t, *final.T)
     rs, pg = res.ratslam, res.gtsam
     order = np.argsort(rs.experience_first_tick)
     write_tum(traj / "ratslam_experiences.tum", t[rs.experience_first_tick[order]], *rs.experience_poses[order].T)
@@ -191,6 +194,9 @@ def write_stream_outputs(run_dir: Path, log: ObservationLog, res: StreamResult) 
     for name, trace in res.alternatives.items():  # other RatSLAM configurations, e.g. the published one
         alt = trace.system
         write_tum(traj / f"ratslam_{name}.tum", t, *trace.pose.T)
+        final = trace.final_pose(alt.experience_poses)
+        if final is not None:
+            write_tum(traj / f"ratslam_{name}_final.tum", t, *final.T)
         order = np.argsort(alt.experience_first_tick)
         write_tum(
             traj / f"ratslam_{name}_experiences.tum",

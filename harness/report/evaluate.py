@@ -78,6 +78,9 @@ def evaluate_stream(
         trajectories["experience_map"] = (rs.experience_poses, gt[exp_ticks])
     trajectories["gtsam"] = (pg.keyframe_poses, gt[pg.keyframe_ticks])
     trajectories["gtsam_online"] = (res.gtsam_pose, gt)
+    for name, final in (("ratslam_final", res.ratslam_final), ("gtsam_final", res.gtsam_final)):
+        if final is not None:
+            trajectories[name] = (final, gt)
     ate, yaw = {}, {}
     for name, (est, ref) in trajectories.items():
         ate[name], yaw[name] = _ate(est, ref)

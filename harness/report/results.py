@@ -40,7 +40,9 @@ class PerTrajectory(Generic[T]):
     ``odometry`` dead reckoning, ``ratslam_online`` RatSLAM's experience-map pose at every tick,
     ``pose_cell_path`` the pose-cell peak in metres (unwrapped), ``experience_map`` the final map
     (absent without experiences), ``gtsam`` the pose graph's keyframes, ``gtsam_online`` its
-    estimate at every tick (both absent when the pose graph did not run)."""
+    estimate at every tick (both absent when the pose graph did not run); ``ratslam_final`` and
+    ``gtsam_final`` every tick as the final map places it (the node its pose hung from, at its
+    final pose, composed with the offset from it: ``harness.run.stream.Trace.final_pose``)."""
 
     odometry: T | None = None
     ratslam_online: T | None = None
@@ -48,6 +50,8 @@ class PerTrajectory(Generic[T]):
     experience_map: T | None = None
     gtsam: T | None = None
     gtsam_online: T | None = None
+    ratslam_final: T | None = None
+    gtsam_final: T | None = None
 
     @staticmethod
     def names() -> tuple[str, ...]:

@@ -83,6 +83,8 @@ class StreamResult:
     gtsam: PoseGraphSLAM | PoseGraphMap
     wall: dict = field(default_factory=dict)  # seconds per system
     alternatives: dict[str, Trace] = field(default_factory=dict)
+    ratslam_final: np.ndarray | None = None  # (N, 3) each tick as RatSLAM's final map places it
+    gtsam_final: np.ndarray | None = None  # (N, 3) each tick as the final pose graph places it
 
     @classmethod
     def from_traces(
@@ -109,6 +111,8 @@ class StreamResult:
             gtsam=gtsam.system,
             wall={"ratslam_s": ratslam.wall_s, "gtsam_s": gtsam.wall_s, "recording_and_bookkeeping_s": other_s},
             alternatives=alternatives,
+            ratslam_final=ratslam.final_pose(ratslam.system.experience_poses),
+            gtsam_final=gtsam.final_pose(gtsam.system.keyframe_poses),
         )
 
     def with_ratslam(self, name: str) -> StreamResult:
@@ -126,6 +130,7 @@ class StreamResult:
             ratslam=trace.system,
             wall={**self.wall, "ratslam_s": trace.wall_s},
             alternatives={},
+            ratslam_final=trace.final_pose(trace.system.experience_poses),
         )
 
 

@@ -2,7 +2,8 @@
 
 Every system gets exactly the same inputs, ``step(dt, v_trans, v_rot, scene_id)`` per tick (the
 step contract; from a camera stream, each view's ``view_rotation`` too) and never any ground
-truth, and has a ``pose``. Figures, replays, sweeps and navigation's exploration all step their
+truth, and has a ``pose`` (and, if it says what the pose hangs from, an ``anchor``: the node, an
+experience or keyframe, and the offset from it). Figures, replays, sweeps and navigation's exploration all step their
 systems through :func:`step_stream`; what each needs afterwards is in the returned
 :class:`Trace` of each system: the online pose at every tick, the wall time spent in the system,
 and, for a system with pose cells (RatSLAM), the peak and snaps at every tick.
@@ -17,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from slamkit.poses import wrap_angle
 from worlds import ObservationLog
 from worlds.errors import InputError
 
@@ -44,6 +46,25 @@ class Trace:
     peak_cells: np.ndarray | None = None
     peak_metres: np.ndarray | None = None
     snapped: np.ndarray | None = None
+    anchor_node: np.ndarray | None = None
+    anchor_offset: np.ndarray | None = None
+
+    def final_pose(self, node_poses: np.ndarray) -> np.ndarray | None:
+        """Each tick's pose as the final map places it (None for a system without an ``anchor``):
+        the final pose of the node the tick's pose hung from (``node_poses``: RatSLAM's experience
+        poses, the pose graph's keyframe poses, after the last tick) composed with the offset the
+        system had from it then; before the first node, the offset from the origin."""
+        if self.anchor_node is None or self.anchor_offset is None:
+            return None
+        nodes = np.asarray(node_poses, dtype=float).reshape(-1, 3)
+        base = np.zeros((len(self.anchor_node), 3))
+        placed = self.anchor_node >= 0
+        base[placed] = nodes[self.anchor_node[placed]]
+        c, s = np.cos(base[:, 2]), np.sin(base[:, 2])
+        off = self.anchor_offset
+        x = base[:, 0] + c * off[:, 0] - s * off[:, 1]
+        y = base[:, 1] + s * off[:, 0] + c * off[:, 1]
+        return np.column_stack([x, y, wrap_angle(base[:, 2] + off[:, 2])])
 
 
 OnTick = Callable[[int, Mapping[str, Any]], None]
@@ -76,6 +97,7 @@ def step_stream(
     cells = [
         (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, dtype=bool)) if _has_pose_cells(s) else None for s in stepping
     ]
+    anchors = [(np.full(n, -1, dtype=np.int64), np.zeros((n, 3))) if hasattr(s, "anchor") else None for s in stepping]
     wall = [0.0] * len(names)
     other = 0.0
     clock = time.perf_counter
@@ -99,6 +121,9 @@ def step_stream(
                 peak[0][k] = system.peak
                 peak[1][k] = system.peak_metres
                 peak[2][k] = system.snapped
+            anchor = anchors[i]
+            if anchor is not None:
+                anchor[0][k], anchor[1][k] = system.anchor
         if on_tick is not None:
             on_tick(k, systems)
         if progress is not None and (k + 1) % report_every == 0:
@@ -118,5 +143,6 @@ def step_stream(
             poses[i],
             wall[i],
             *(peak if peak is not None else (None, None, None)),
+            *(anchors[i] or (None, None)),
         )
     return traces, other
