@@ -149,7 +149,7 @@ def _fmt(v, unit=""):
     return f"{v}{unit}"
 
 
-_RATSLAM_TRAJECTORIES = ("ratslam_online", "pose_cell_path", "experience_map")
+_RATSLAM_TRAJECTORIES = ("ratslam_online", "pose_cell_path", "experience_map", "ratslam_final")
 
 
 def _variant_section(name: str, label: str, v: VariantResult, published: VariantResult | None = None) -> list[str]:
@@ -256,7 +256,8 @@ def render_markdown(run: RunResult, panels: list[str]) -> str:
         "`experience_map` compares each experience's final map pose with the ground truth where "
         "it was created (the place it stands for: later entries are related to that place "
         "through the pose-cell offset, see `offset_transitions`); `*_online` is the estimate "
-        "at every tick; `pose_cell_path` is the pose-cell peak in metres (unwrapped).",
+        "at every tick; `*_final` every tick as the final map places it (the node its pose hung "
+        "from, at its final pose); `pose_cell_path` is the pose-cell peak in metres (unwrapped).",
         "",
     ]
     for name, v in run.variants.items():
