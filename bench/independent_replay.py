@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--no-stops", action="store_true", help="the robot never stands still")
     ap.add_argument("--harness", default=str(Path(sys.executable).with_name("ratslam-harness")))
     args = ap.parse_args(argv)
-    print("log     seed  first revisit s  floor  | whole-run ATE m (thirds): odometry  ratslam  gtsam  ratslam_final  gtsam_final")
+    print("log     seed  first revisit s  floor  | whole-run ATE m (thirds): " + "  ".join(SYSTEMS))
     for name in args.logs.split(","):
         for seed in (int(s) for s in args.seeds.split(",")):
             spec = replace(LOGS[name], seed=seed)
