@@ -202,6 +202,16 @@ def scene_numbers(spec: LogSpec, pose: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return scene, fp
 
 
+def log_spec(name: str, seed: int, duration_s: float | None = None, stops: bool = True) -> LogSpec:
+    """The spec of log ``name`` with ``seed``, its duration replaced if given, without stops if asked."""
+    spec = replace(LOGS[name], seed=seed)
+    if duration_s:
+        spec = replace(spec, duration_s=duration_s)
+    if not stops:
+        spec = replace(spec, stop_every_s=math.inf)
+    return spec
+
+
 def make_log(spec: LogSpec) -> dict[str, np.ndarray]:
     """The log's columns (the contract's names)."""
     pose, vt, wt, dt = ground_truth(spec)
@@ -254,11 +264,7 @@ def main(argv: list[str] | None = None) -> None:
         if name not in LOGS:
             ap.error(f"--logs: unknown log {name!r} (known: {', '.join(LOGS)})")
         for seed in (int(s) for s in args.seeds.split(",")):
-            spec = replace(LOGS[name], seed=seed)
-            if args.duration:
-                spec = replace(spec, duration_s=args.duration)
-            if args.no_stops:
-                spec = replace(spec, stop_every_s=math.inf)
+            spec = log_spec(name, seed, args.duration, stops=not args.no_stops)
             path = args.out / f"{name}_s{seed}.csv"
             write_log(make_log(spec), path)
             print(path)

@@ -20,10 +20,8 @@ standstill, when the robot is not turning (:mod:`slamkit.yaw_bias`).
 from __future__ import annotations
 
 import argparse
-import math
 import subprocess
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +31,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
-from independent_logs import LOGS, make_log, write_log  # noqa: E402
+from independent_logs import LOGS, log_spec, make_log, write_log  # noqa: E402
 
 from harness.report.metrics import ate_rmse  # noqa: E402
 
@@ -97,11 +95,7 @@ def main(argv: list[str] | None = None) -> None:
     print("log     seed  first revisit s  floor  | whole-run ATE m (thirds): " + "  ".join(SYSTEMS))
     for name in args.logs.split(","):
         for seed in (int(s) for s in args.seeds.split(",")):
-            spec = replace(LOGS[name], seed=seed)
-            if args.duration:
-                spec = replace(spec, duration_s=args.duration)
-            if args.no_stops:
-                spec = replace(spec, stop_every_s=math.inf)
+            spec = log_spec(name, seed, args.duration, stops=not args.no_stops)
             cols = make_log(spec)
             log = args.out / "logs" / f"{name}_s{seed}.csv"
             write_log(cols, log)
