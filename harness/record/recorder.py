@@ -130,11 +130,11 @@ class _SegmentBuffer:
 
 
 class _ImageBuffer:
-    """Per-tick grey-level images of one entity, sent in columns every ``capacity`` rows (one
-    ``log`` call per image costs about 30 times as much)."""
+    """Per-tick images of one entity (grey levels, ``color_model`` "L", or "RGB"), sent in columns
+    every ``capacity`` rows (one ``log`` call per image costs about 30 times as much)."""
 
-    def __init__(self, entity: str, capacity: int):
-        self.entity, self.capacity = entity, capacity
+    def __init__(self, entity: str, capacity: int, color_model: str = "L"):
+        self.entity, self.capacity, self.color_model = entity, capacity, color_model
         self.ticks: list[int] = []
         self.times: list[float] = []
         self.images: list[np.ndarray] = []
@@ -149,7 +149,9 @@ class _ImageBuffer:
         if not self.ticks:
             return
         formats = [
-            rr.components.ImageFormat(width=im.shape[1], height=im.shape[0], color_model="L", channel_datatype="U8")
+            rr.components.ImageFormat(
+                width=im.shape[1], height=im.shape[0], color_model=self.color_model, channel_datatype="U8"
+            )
             for im in self.images
         ]
         rec.send_columns(
@@ -206,7 +208,8 @@ class Recorder(_ClosedOnSuccess):
         Re-log GTSAM's accepted loop closures every this many ticks (default 700: 100 s at 7 Hz;
         reading the acceptance flags costs the baseline a pass over all its closures).
     flush_every:
-        Per-tick segments are buffered and sent in columns of this many rows (default 70).
+        Per-tick segments (and camera views) are buffered and sent in columns of this many rows
+        (default 700: a send costs about as much as a hundred rows).
     align:
         Draw the experience map and GTSAM estimate aligned to ground truth (when given).
     world_bounds:
@@ -230,7 +233,7 @@ class Recorder(_ClosedOnSuccess):
         every_map: int = 70,
         every_closures: int = 700,
         map_size: int = 1000,
-        flush_every: int = 70,
+        flush_every: int = 700,
         align: bool = True,
         world_bounds=None,
         application_id: str = "ratslam-harness",
@@ -280,6 +283,7 @@ class Recorder(_ClosedOnSuccess):
             for name in ("world/ground_truth", "world/odometry", "pose_cells/peak")
         }
         self._images = {name: _ImageBuffer(name, int(flush_every)) for name in ("camera/image", "camera/template")}
+        self._images["pose_cells/activity"] = _ImageBuffer("pose_cells/activity", max(1, int(flush_every) // 10), "RGB")
         cap = 1024
         self._gt = np.full((cap, 3), np.nan)  # ground truth per tick, for alignment and live ATE
         self._odom = np.full((cap, 3), np.nan)
@@ -303,8 +307,12 @@ class Recorder(_ClosedOnSuccess):
         xs, ys = np.arange(0, nx + 1, 4, dtype=float), np.arange(0, ny + 1, 4, dtype=float)
         lines = [[[x, 0], [x, ny]] for x in xs] + [[[0, y], [nx, y]] for y in ys]
         rec.log("pose_cells/grid", rr.LineStrips2D(lines, colors=[C_GRID], radii=[0.04]), static=True)
+        # the activity image's cells drawn as blocks, under the peak's trail (its pixels come per tick)
+        rec.log(
+            "pose_cells/activity", rr.Image.from_fields(magnification_filter="Nearest", draw_order=-10.0), static=True
+        )
         if self.camera:
-            for name in self._images:
+            for name in ("camera/image", "camera/template"):
                 rec.log(name, rr.Image.from_fields(magnification_filter="Nearest"), static=True)
 
     # ------------------------------------------------------------------ per tick
@@ -398,12 +406,10 @@ class Recorder(_ClosedOnSuccess):
         proj = np.asarray(ratslam.pose_cell_activity).sum(axis=2)  # (nx, ny)
         top = proj.max()
         level = (proj / top * 255).astype(np.uint8) if top > 0 else np.zeros(proj.shape, np.uint8)
-        self.rec.set_time("tick", sequence=k)
-        self.rec.set_time("sim_time", duration=t)
         # image rows are y', columns x': pixel (x', y') covers cell (x', y')
-        self.rec.log(
-            "pose_cells/activity", rr.Image(self._lut[level.T], magnification_filter="Nearest", draw_order=-10.0)
-        )
+        buf = self._images["pose_cells/activity"]
+        if buf.add(k, t, self._lut[level.T]):
+            buf.send(self.rec)
 
     def _aligned(self, poses: np.ndarray, ticks: np.ndarray):
         """Poses moved into the ground-truth frame (and the ATE), or unchanged without ground truth."""
