@@ -45,7 +45,7 @@ import os
 import uuid
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Self
+from typing import Any, Literal, Self
 
 import numpy as np
 import pyarrow as pa
@@ -133,7 +133,7 @@ class _ImageBuffer:
     """Per-tick images of one entity (grey levels, ``color_model`` "L", or "RGB"), sent in columns
     every ``capacity`` rows (one ``log`` call per image costs about 30 times as much)."""
 
-    def __init__(self, entity: str, capacity: int, color_model: str = "L"):
+    def __init__(self, entity: str, capacity: int, color_model: Literal["L", "RGB"] = "L"):
         self.entity, self.capacity, self.color_model = entity, capacity, color_model
         self.ticks: list[int] = []
         self.times: list[float] = []
