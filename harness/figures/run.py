@@ -44,12 +44,12 @@ def trajectory_checksums(run_dir: Path) -> dict[str, str]:
     }
 
 
-def write_run(run_dir: Path, run: RunResult) -> None:
+def write_run(run_dir: Path, run: RunResult, panels: list[Path] | None = None) -> None:
     """A run's ``metrics.json`` (with its trajectories' checksums) and its report (report.md and
-    the PNG panels)."""
+    the PNG panels, unless its variants' ``panels`` are drawn already)."""
     run = dataclasses.replace(run, trajectory_sha256=trajectory_checksums(run_dir))
     run.write(run_dir / "metrics.json")
-    write_report(run_dir, run)
+    write_report(run_dir, run, panels)
 
 
 def run_figure(
@@ -144,7 +144,7 @@ def run_figure(
             else provenance(figure=fig.name, seed=seed, duration_s=duration, ratslam=ratslam, camera=camera),
             published=published,
         )
-        write_run(stage, run)
+        write_run(stage, run, [p for r in runs for p in r.panels])
     return out
 
 

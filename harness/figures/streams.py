@@ -19,7 +19,8 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
+from concurrent.futures import Future, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,12 +33,13 @@ from worlds import ObservationLog, World, simulate
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
 from ..report.results import VariantConfig, VariantResult
+from ..report.run_report import variant_panels
 from ..run.conditions import condition_world
 from ..run.config_file import ConfigOverrides
 from ..run.runner import GTSAM, RATSLAM, PoseGraphMap, StreamResult, dead_reckon
 from ..run.scale import derive_configs
 from ..run.stream import Trace, step_stream
-from ..run.workers import fork_context, map_in_processes, warm_kernels
+from ..run.workers import fork_context, pool, sigint_blocked, terminate, warm_kernels
 from .registry import Figure, Variant, figure_configs, get_figure
 from .stream_run import (
     RatSLAMChoice,
@@ -316,6 +318,7 @@ class VariantRun:
     lap_length_m: float | None
     duration_s: float
     alternatives: dict[str, VariantResult] = dataclasses.field(default_factory=dict)
+    panels: list[Path] = dataclasses.field(default_factory=list)  # its report's PNG panels
 
 
 @dataclass(frozen=True)
@@ -331,11 +334,13 @@ class VariantOutput:
     lap_length_m: float | None
     closure_true_distance: float
     seed: int
+    world: World | None = None  # the figure's world, for the panels
 
 
 def write_variant(out: VariantOutput) -> VariantRun:
     """A variant's run directory from its systems' traces: its configuration files, TUM
-    trajectories, maps.npz and metrics (:func:`harness.figures.stream_run.finish_stream`)."""
+    trajectories, maps.npz, metrics (:func:`harness.figures.stream_run.finish_stream`) and report
+    panels (:func:`harness.report.run_report.variant_panels`)."""
     fig, setup, log = get_figure(out.figure), out.setup, out.log
     variant, derivation = setup.variant, setup.derivations[""]
     write_configs(
@@ -383,40 +388,76 @@ def write_variant(out: VariantOutput) -> VariantRun:
         out.lap_length_m,
         log.duration,
         {name: recorded(r, setup.alternatives[name], name) for name, r in alt_results.items()},
+        variant_panels(setup.run_dir, out.world),
     )
 
 
 def run_variants(fig: Figure, members: Sequence[Member], options: RunOptions, workers: int) -> list[VariantRun]:
     """Every member variant of ``fig`` stepped (:func:`plan_jobs`, on ``workers`` processes) and
-    written into its run directory; their runs in the members' order."""
+    written into its run directory with its panels (:func:`write_variant`), each as soon as all
+    its systems have run; their runs in the members' order."""
     jobs = plan_jobs(fig, members, options, split=workers > 1)
-    parallel = workers > 1 and len(jobs) > 1
-    if parallel:
-        warm_kernels()  # compiled once here, inherited by the forked workers
-    mapped: Callable[[Callable, list], list] = (
-        (lambda fn, items: map_in_processes(fn, items, min(workers, len(items)), fork_context()))
-        if parallel
-        else (lambda fn, items: [fn(item) for item in items])
-    )
-    results = mapped(step_job, jobs)
-    outputs: dict[str, VariantOutput] = {}
-    for job, result in zip(jobs, results):
-        if not job.recorded:
-            continue
-        assert result.stream is not None
-        for setup, traces in zip(result.stream.setups, result.traces):
-            outputs[setup.variant.name] = VariantOutput(
-                fig.name,
-                setup,
-                result.stream.log,
-                dict(traces),
-                result.other_s,
-                result.lap_length_m,
-                result.closure_true_distance,
-                options.seed,
-            )
-    for job, result in zip(jobs, results):  # the side jobs' systems joined to their variants
-        if not job.recorded:
+    if workers < 2 or len(jobs) < 2:
+        done = _Assembly(fig, jobs, options)
+        for job in jobs:
+            done.add(job, step_job(job))
+        return [write_variant(done.outputs[v.name]) for v, _ in members]
+    warm_kernels()  # compiled once here, inherited by the forked workers
+    ex = pool(min(workers, len(jobs)), fork_context())
+    try:
+        with sigint_blocked():  # the workers start here
+            stepping = {ex.submit(step_job, job): job for job in jobs}
+        done = _Assembly(fig, jobs, options)
+        writing: dict[str, Future] = {}
+        for future in as_completed(stepping):
+            for name in done.add(stepping[future], future.result()):
+                writing[name] = ex.submit(write_variant, done.outputs[name])
+        runs = [writing[v.name].result() for v, _ in members]
+    except BaseException:
+        terminate(ex)
+        raise
+    ex.shutdown()
+    return runs
+
+
+class _Assembly:
+    """The variants' outputs gathered from their jobs' results, in whatever order they finish."""
+
+    def __init__(self, fig: Figure, jobs: Sequence[StreamJob], options: RunOptions):
+        self.fig, self.options = fig, options
+        self.outputs: dict[str, VariantOutput] = {}
+        self._side: dict[str, dict[str, Trace]] = {}  # traces of side jobs finished before the stream's
+        self._waiting: dict[str, int] = {}  # jobs still to finish, per variant
+        for job in jobs:
+            for variant, _ in job.members:
+                self._waiting[variant.name] = self._waiting.get(variant.name, 0) + 1
+
+    def add(self, job: StreamJob, result: JobResult) -> list[str]:
+        """Take a job's result; returns the variants it completed (every job of theirs done)."""
+        if job.recorded:
+            assert result.stream is not None
+            for setup, traces in zip(result.stream.setups, result.traces):
+                name = setup.variant.name
+                self.outputs[name] = VariantOutput(
+                    self.fig.name,
+                    setup,
+                    result.stream.log,
+                    {**traces, **self._side.pop(name, {})},
+                    result.other_s,
+                    result.lap_length_m,
+                    result.closure_true_distance,
+                    self.options.seed,
+                    self.options.world,
+                )
+        else:
             for (variant, _), traces in zip(job.members, result.traces):
-                outputs[variant.name].traces.update(traces)
-    return mapped(write_variant, [outputs[variant.name] for variant, _ in members])
+                if variant.name in self.outputs:
+                    self.outputs[variant.name].traces.update(traces)
+                else:
+                    self._side.setdefault(variant.name, {}).update(traces)
+        complete = []
+        for variant, _ in job.members:
+            self._waiting[variant.name] -= 1
+            if self._waiting[variant.name] == 0:
+                complete.append(variant.name)
+        return complete

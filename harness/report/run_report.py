@@ -72,13 +72,13 @@ def write_panels(run_dir: Path, run: RunResult, maps: dict[str, np.ndarray]) -> 
     dirs = _variant_dirs(run_dir, run)
     workers = min(len(dirs), free_cores())
     if workers < 2:
-        return [p for vdir in dirs for p in _variant_panels(vdir, world, maps if vdir == run_dir else None)]
+        return [p for vdir in dirs for p in variant_panels(vdir, world, maps if vdir == run_dir else None)]
     jobs = [(vdir, world) for vdir in dirs]
     return [p for panels in map_in_processes(_panels_job, jobs, workers, fork_context()) for p in panels]
 
 
 def _panels_job(job: tuple[Path, World | None]) -> list[Path]:
-    return _variant_panels(*job)
+    return variant_panels(*job)
 
 
 def _references(vdir: Path, maps: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray] | None:
@@ -92,7 +92,7 @@ def _references(vdir: Path, maps: dict[str, np.ndarray]) -> tuple[np.ndarray, np
     return _poses(traj / "ground_truth.tum"), _poses(traj / "odometry.tum")
 
 
-def _variant_panels(vdir: Path, world: World | None, maps: dict[str, np.ndarray] | None = None) -> list[Path]:
+def variant_panels(vdir: Path, world: World | None, maps: dict[str, np.ndarray] | None = None) -> list[Path]:
     """One variant's panels, from ``maps`` (default: its maps.npz)."""
     if maps is None:
         maps = _maps(vdir / "maps.npz")
@@ -289,14 +289,15 @@ def _or_na(v) -> str:
     return "n/a" if v is None else f"{v}"
 
 
-def write_report(run_dir, run: RunResult | None = None) -> Path:
+def write_report(run_dir, run: RunResult | None = None, panels: list[Path] | None = None) -> Path:
     """(Re)build ``report.md`` and the PNG panels of ``run_dir`` from ``run`` (default: its
-    metrics.json)."""
+    metrics.json); ``panels``: the panels, already drawn with each variant's run
+    (:func:`variant_panels`), instead of drawing them all here."""
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise ReportError(f"{run_dir}: not a directory")
     run, maps = _load(run_dir, run)
-    written = write_panels(run_dir, run, maps)
+    written = write_panels(run_dir, run, maps) if panels is None else panels
     report = atomic_write_text(
         run_dir / "report.md", render_markdown(run, [p.relative_to(run_dir).as_posix() for p in written])
     )
