@@ -19,6 +19,9 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import pickle
+import tempfile
+import time
 from collections.abc import Sequence
 from concurrent.futures import Future, as_completed
 from dataclasses import dataclass
@@ -30,6 +33,7 @@ import numpy as np
 from baselines import PoseGraphConfig, PoseGraphSLAM
 from ratslam import RatSLAM, RatSLAMConfig
 from worlds import ObservationLog, World, simulate
+from worlds.files import atomic_open
 from worlds.odometry_model import PLAZA_WHEEL_ERRORS
 
 from ..report.results import VariantConfig, VariantResult
@@ -163,13 +167,17 @@ Member = tuple[Variant, Path]
 """A variant of a stream and its run directory."""
 
 
-def setup_stream(fig: Figure, members: Sequence[Member], options: RunOptions) -> SharedStream:
-    """The stream of ``members`` (variants with one :func:`stream_key`) simulated once, and each
-    member's configurations on it: the figure's and the variant's, the camera's settings if the
-    systems see the camera, a configuration file's values on top, and the RatSLAMs that
-    ``options.ratslam`` runs beside the run's own."""
+def setup_stream(
+    fig: Figure, members: Sequence[Member], options: RunOptions, scene_log: ObservationLog | None = None
+) -> SharedStream:
+    """The stream of ``members`` (variants with one :func:`stream_key`) simulated once (or
+    ``scene_log``, the same stream simulated by another job), and each member's configurations on
+    it: the figure's and the variant's, the camera's settings if the systems see the camera, a
+    configuration file's values on top, and the RatSLAMs that ``options.ratslam`` runs beside the
+    run's own."""
     world = variant_world(fig, options.world, members[0][0])
-    scene_log = variant_log(fig, world, options.duration, options.seed)
+    if scene_log is None:
+        scene_log = variant_log(fig, world, options.duration, options.seed)
     log, views, view = scene_log, None, None
     setups = []
     for variant, run_dir in members:
@@ -237,6 +245,7 @@ class StreamJob:
     options: RunOptions
     roles: tuple[str, ...] | None
     recorded: bool
+    handoff: Path | None = None  # where the recording job leaves the stream for the stream's other jobs
 
 
 @dataclass
@@ -256,7 +265,11 @@ def step_job(job: StreamJob) -> JobResult:
     """Step the job's systems through its stream, each distinct configuration once, with a
     recorder per member if the job records and the run records."""
     fig, options = get_figure(job.figure), job.options
-    stream = setup_stream(fig, job.members, options)
+    received = None if job.recorded or job.handoff is None else _received(job.handoff)
+    stream = setup_stream(fig, job.members, options, received)
+    if job.recorded and job.handoff is not None:
+        with atomic_open(job.handoff, "wb") as f:
+            pickle.dump(stream.log, f, protocol=pickle.HIGHEST_PROTOCOL)
     configs, keys = distinct_systems(stream.setups, job.roles)
     systems = {key: _system(config) for key, config in configs.items()}
     names = "+".join(v.name for v, _ in job.members)
@@ -290,21 +303,38 @@ def step_job(job: StreamJob) -> JobResult:
     return result
 
 
-def plan_jobs(fig: Figure, members: Sequence[Member], options: RunOptions, split: bool) -> list[StreamJob]:
+def _received(handoff: Path) -> ObservationLog:
+    """The stream a recording job left at ``handoff``: it started before this job (jobs start in
+    their order, recording jobs first), and simulates its stream first thing. If it fails, the
+    run stops every worker, this one too."""
+    while not handoff.exists():
+        time.sleep(0.02)
+    with open(handoff, "rb") as f:
+        return pickle.load(f)
+
+
+def plan_jobs(
+    fig: Figure, members: Sequence[Member], options: RunOptions, split: bool, handoffs: Path | None = None
+) -> list[StreamJob]:
     """The jobs of a figure run: per stream, one job recording its members' RatSLAMs and pose
     graphs and, if ``split`` (parallel workers, scene numbers), one job per RatSLAM run beside
-    them; otherwise one job steps all of a stream's systems. Recording jobs come first (the
-    longest), so that the side jobs fill in around them."""
+    them, which takes the stream the recording job simulated (left in the folder ``handoffs``);
+    otherwise one job steps all of a stream's systems. Recording jobs come first (the longest), so
+    that the side jobs fill in around them."""
     streams: dict[tuple, list[Member]] = {}
     for variant, run_dir in members:
         streams.setdefault(stream_key(variant), []).append((variant, run_dir))
     split = split and options.camera is None
     side = alternative_names(options.ratslam) if split else ()
+    handoff = [None if not side or handoffs is None else handoffs / f"stream{i}.pickle" for i in range(len(streams))]
     recording = [
-        StreamJob(fig.name, tuple(m), options, (RATSLAM, GTSAM) if split else None, True) for m in streams.values()
+        StreamJob(fig.name, tuple(m), options, (RATSLAM, GTSAM) if split else None, True, handoff[i])
+        for i, m in enumerate(streams.values())
     ]
     return recording + [
-        StreamJob(fig.name, tuple(m), options, (name,), False) for m in streams.values() for name in side
+        StreamJob(fig.name, tuple(m), options, (name,), False, handoff[i])
+        for i, m in enumerate(streams.values())
+        for name in side
     ]
 
 
@@ -396,7 +426,15 @@ def run_variants(fig: Figure, members: Sequence[Member], options: RunOptions, wo
     """Every member variant of ``fig`` stepped (:func:`plan_jobs`, on ``workers`` processes) and
     written into its run directory with its panels (:func:`write_variant`), each as soon as all
     its systems have run; their runs in the members' order."""
-    jobs = plan_jobs(fig, members, options, split=workers > 1)
+    with tempfile.TemporaryDirectory(prefix="ratslam-streams-") as handoffs:
+        return _run_jobs(fig, members, options, workers, Path(handoffs))
+
+
+def _run_jobs(
+    fig: Figure, members: Sequence[Member], options: RunOptions, workers: int, handoffs: Path
+) -> list[VariantRun]:
+    """:func:`run_variants` with the streams handed from job to job in the folder ``handoffs``."""
+    jobs = plan_jobs(fig, members, options, workers > 1, handoffs)
     if workers < 2 or len(jobs) < 2:
         done = _Assembly(fig, jobs, options)
         for job in jobs:
