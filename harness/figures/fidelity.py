@@ -52,6 +52,7 @@ from ..report.metrics import ate_rmse, wrap_angle
 from ..run.runner import dead_reckon
 from ..run.stream import step_stream
 from .registry import figure_configs, get_figure
+from .streams import variant_log, variant_world
 
 
 @dataclass(frozen=True)
@@ -325,15 +326,11 @@ def figure_base(figure: str) -> RatSLAMConfig:
 
 
 def figure_stream(figure: str, seed: int, duration: float | None = None, world: Any = None) -> ObservationLog:
-    """The figure's primary stream (``world`` overrides its world, e.g. finer scene cells)."""
+    """The figure's primary stream, as a figure run simulates it (``world``, a loaded world,
+    overrides its world, e.g. finer scene cells)."""
     fig = get_figure(figure)
-    return simulate(
-        world if world is not None else fig.world,
-        duration=fig.duration if duration is None else duration,
-        seed=seed,
-        bias_deg_s=fig.primary.odometric_bias,
-        fp_rate=fig.fp_rate,
-    )
+    base = world if world is not None else load_world(fig.world)
+    return variant_log(fig, variant_world(fig, base, fig.primary), fig.duration if duration is None else duration, seed)
 
 
 COLUMNS = [
