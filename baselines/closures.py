@@ -85,3 +85,35 @@ class SceneIndex:
             far = [i for d, i in ranked if d > limit_d]
             return (near + far)[: self._max_candidates]
         return [i for _, i in ranked[: self._max_candidates]]
+
+
+class ClosureChains:
+    """Consecutive closures between the same two passages, counted as one chain.
+
+    A closure (i, j) -- earlier keyframe i, new keyframe j -- continues a chain when the chain's
+    last closure (i', j') has 0 < j - j' <= ``gap`` and |i - i'| <= ``gap`` + (j - j'): both
+    passages moved on by about as many keyframes.  Such closures share the offset between the two
+    passages; with a share ``correlation`` (rho) of each closure's variance common to its chain,
+    the k-th closure of a chain is given the variance sigma^2 (1 + (k - 1) rho): a chain of n
+    equicorrelated closures tells what its mean tells, variance sigma^2 (1 + (n - 1) rho) / n,
+    and this online weighting (each closure's chain position being all that is known when it is
+    added) approaches that from above.  rho = 0: every closure independent, scale 1.
+    """
+
+    def __init__(self, correlation: float, gap: int) -> None:
+        self._rho = correlation
+        self._gap = gap
+        self._tails: list[list[int]] = []  # [i, j, closures so far] of chains still open
+
+    def scale(self, i: int, j: int) -> float:
+        """Sigma multiplier of the new closure (i, j): sqrt(1 + (k - 1) rho), k its place in its chain."""
+        if self._rho <= 0.0:
+            return 1.0
+        gap = self._gap
+        self._tails = [t for t in self._tails if j - t[1] <= gap]
+        chain = next((t for t in self._tails if j > t[1] and abs(i - t[0]) <= gap + (j - t[1])), None)
+        if chain is None:
+            chain = [i, j, 0]
+            self._tails.append(chain)
+        chain[0], chain[1], chain[2] = i, j, chain[2] + 1
+        return math.sqrt(1.0 + (chain[2] - 1) * self._rho)

@@ -99,6 +99,11 @@ class LoopClosureConfig:
     """If positive, link the most recent of the sightings this near the nearest. See the docs section."""
     early_tolerance_m: float = param(0.0, ge=0)
     """If positive, link the earliest of the sightings this near the nearest. See the docs section."""
+    chain_correlation: float = param(0.0, ge=0, le=1)
+    """Share of a closure's variance common to its chain (consecutive closures between the same two
+    passages, :class:`~baselines.closures.ClosureChains`); 0: closures independent. See the docs section."""
+    chain_gap_keyframes: int = param(3, ge=1)
+    """Keyframes a chain may skip on either passage and still continue (``chain_correlation`` > 0)."""
     batch_keyframes: int | None = param(None, ge=1)
     """Closures handed to iSAM2 at most every this-many keyframes (None: 8, or 4 with the yaw bias)."""
     flush_distance: float = param(1.0, gt=0, finite=False)

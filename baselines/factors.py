@@ -34,15 +34,16 @@ def robust_kernel(config: PoseGraphConfig):
     return m.GemanMcClure.Create(k)
 
 
-def closure_gaussian(config: PoseGraphConfig):
-    """Diagonal Gaussian noise of a scene-match loop closure (x, y, theta)."""
+def closure_gaussian(config: PoseGraphConfig, scale: float = 1.0):
+    """Diagonal Gaussian noise of a scene-match loop closure (x, y, theta), its sigmas times
+    ``scale`` (a closure's place in its chain, :class:`~baselines.closures.ClosureChains`)."""
     s_xy, s_th = config.closures.sigma_xy_m, config.closures.sigma_theta_rad
-    return gtsam.noiseModel.Diagonal.Sigmas(np.array([s_xy, s_xy, s_th]))
+    return gtsam.noiseModel.Diagonal.Sigmas(np.array([s_xy, s_xy, s_th]) * scale)
 
 
-def closure_noise(config: PoseGraphConfig):
+def closure_noise(config: PoseGraphConfig, scale: float = 1.0):
     """Noise model put on closure factors: robust-wrapped only for the robust back-end."""
-    gaussian = closure_gaussian(config)
+    gaussian = closure_gaussian(config, scale)
     if config.backend.kind == "robust":
         return gtsam.noiseModel.Robust.Create(robust_kernel(config), gaussian)
     return gaussian
@@ -66,11 +67,12 @@ def pose2_logmap_between(poses_i: np.ndarray, poses_j: np.ndarray) -> np.ndarray
     return np.column_stack([np.where(small, tx, vx), np.where(small, ty, vy), w])
 
 
-def closure_mahalanobis(config: PoseGraphConfig, poses_i: np.ndarray, poses_j: np.ndarray) -> np.ndarray:
-    """Mahalanobis norm of closure residuals Log(X_i^-1 X_j) for (L, 3) pose arrays."""
+def closure_mahalanobis(config: PoseGraphConfig, poses_i: np.ndarray, poses_j: np.ndarray, scale=1.0) -> np.ndarray:
+    """Mahalanobis norm of closure residuals Log(X_i^-1 X_j) for (L, 3) pose arrays; ``scale``:
+    each closure's sigma multiplier (scalar or (L,))."""
     c = config.closures
     sig = np.array([c.sigma_xy_m, c.sigma_xy_m, c.sigma_theta_rad])
-    return np.linalg.norm(pose2_logmap_between(poses_i, poses_j) / sig, axis=1)
+    return np.linalg.norm(pose2_logmap_between(poses_i, poses_j) / sig, axis=1) / np.asarray(scale, dtype=float)
 
 
 def odometry_noise(cov: np.ndarray):

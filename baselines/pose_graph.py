@@ -25,7 +25,7 @@ from gtsam.symbol_shorthand import B, X
 from slamkit.arcs import check_tick
 from slamkit.yaw_bias import YawBiasSearch
 
-from .closures import SceneIndex
+from .closures import ClosureChains, SceneIndex
 from .config import PoseGraphConfig
 from .factors import (
     BiasedOdometry,
@@ -63,10 +63,11 @@ class PoseGraphSLAM:
         if not isinstance(self._config, PoseGraphConfig):
             raise ValueError(f"config: expected a PoseGraphConfig, got {type(self._config).__name__}")
         cfg = self._config
-        self._closure_noise = closure_noise(cfg)  # robust-wrapped for "robust" only
         self._kernel = robust_kernel(cfg)
-        # GNC back-end: closures not yet judged by GNC sit in iSAM2 with the robust kernel.
-        self._pending_noise = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg))
+        # Closure noise models by sigma multiplier (a closure's place in its chain): the factor's
+        # own (robust-wrapped for "robust" only) and, for GNC, the robust stand-in a closure not
+        # yet judged sits in iSAM2 with.
+        self._closure_noises: dict[float, tuple] = {}
         yb = cfg.yaw_bias
         self._search: YawBiasSearch | None = None
         if yb.search and not yb.estimate:
@@ -113,6 +114,8 @@ class PoseGraphSLAM:
         self._lc_isam_index: list[int] = []  # index of the closure's factor in iSAM2, -1 if absent
         self._lc_provisional: list[bool] = []  # GNC: iSAM2 holds the robust stand-in
         self._lc_gnc_weight: list[float] = []
+        self._lc_scale: list[float] = []  # sigma multiplier from the closure's place in its chain
+        self._chains = ClosureChains(cfg.closures.chain_correlation, cfg.closures.chain_gap_keyframes)
         self._recoveries = 0  # iSAM2 rebuilds after gtsam refused an update
         self._closures_dropped = 0  # closures left out because gtsam refused them even then
         self._keyframes_since_gnc = 0
@@ -240,7 +243,9 @@ class PoseGraphSLAM:
         closures = self._scenes.candidates(scene, self._kf_path, self._path, (guess.x(), guess.y()), self._estimate_xy)
         self._scenes.add(scene, j)
         for i in closures:
-            factor = gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(), self._closure_noise)
+            scale = self._chains.scale(i, j)
+            factor = gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(), self._noise(scale)[0])
+            self._lc_scale.append(scale)
             self._lc_i.append(i)
             self._lc_j.append(j)
             self._lc_tick.append(step_index)
@@ -331,8 +336,18 @@ class PoseGraphSLAM:
         """The factor iSAM2 holds for closure ``c``: GNC's robust stand-in while the closure is
         provisional, else the closure as in the graph."""
         if self._lc_provisional[c]:
-            return gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(), self._pending_noise)
+            pending = self._noise(self._lc_scale[c])[1]
+            return gtsam.BetweenFactorPose2(X(self._lc_i[c]), X(self._lc_j[c]), gtsam.Pose2(), pending)
         return self._graph.at(self._lc_graph_index[c])
+
+    def _noise(self, scale: float) -> tuple:
+        """(closure factor noise, GNC's robust stand-in) for closures of sigma multiplier ``scale``."""
+        noises = self._closure_noises.get(scale)
+        if noises is None:
+            cfg = self._config
+            stand_in = gtsam.noiseModel.Robust.Create(self._kernel, closure_gaussian(cfg, scale))
+            noises = self._closure_noises[scale] = (closure_noise(cfg, scale), stand_in)
+        return noises
 
     # ------------------------------------------------------------------ iSAM2 updates
     @property
@@ -419,7 +434,8 @@ class PoseGraphSLAM:
             return False
         poses_i = np.array([self._estimate_pose2(i) for i in closures])
         poses_j = np.repeat([[guess.x(), guess.y(), guess.theta()]], len(closures), axis=0)
-        return bool(np.any(closure_mahalanobis(self._config, poses_i, poses_j) > limit))
+        scale = self._lc_scale[len(self._lc_scale) - len(closures) :]  # the new keyframe's closures
+        return bool(np.any(closure_mahalanobis(self._config, poses_i, poses_j, scale) > limit))
 
     def _estimate_pose2(self, i: int) -> tuple[float, float, float]:
         """Current estimate of keyframe ``i`` (its odometry guess when offline)."""
@@ -616,7 +632,7 @@ class PoseGraphSLAM:
             poses = self.keyframe_poses
             i = np.asarray(self._lc_i)[unjudged]
             j = np.asarray(self._lc_j)[unjudged]
-            d = closure_mahalanobis(self._config, poses[i], poses[j])
+            d = closure_mahalanobis(self._config, poses[i], poses[j], np.asarray(self._lc_scale)[unjudged])
             weights[unjudged] = [self._kernel.weight(float(x)) for x in d]
         return weights
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from baselines import BackendConfig, KeyframeConfig, OptimisationConfig, PoseGraphConfig, PoseGraphSLAM
-from baselines.closures import SceneIndex
+from baselines.closures import ClosureChains, SceneIndex
 from tests.helpers import DT
 
 
@@ -168,6 +168,32 @@ def test_closure_tie_break_nearest_recent_or_earliest():
     # Earliest-preferring keeps the earliest half of a full window: keyframe 0 is still ranked.
     assert pick(window=2, early_tolerance=0.5) == [0]
     assert pick(window=2) == [2]  # the plain window holds the two most recent only
+
+
+def test_closure_chains_weigh_a_chain_like_its_mean():
+    """The k-th closure of a chain gets sigma x sqrt(1 + (k - 1) rho); a closure whose passages
+    did not both move on by a few keyframes starts a chain of its own; rho = 0: always 1."""
+    chains = ClosureChains(correlation=0.5, gap=3)
+    # one chain: both passages advance a keyframe or two at a time
+    assert [chains.scale(i, j) for i, j in [(10, 100), (11, 101), (13, 103), (14, 104)]] == pytest.approx(
+        [1.0, math.sqrt(1.5), math.sqrt(2.0), math.sqrt(2.5)]
+    )
+    assert chains.scale(40, 105) == 1.0  # another passage: a new chain
+    assert chains.scale(16, 106) == pytest.approx(math.sqrt(3.0))  # the first chain goes on
+    assert chains.scale(17, 111) == 1.0  # five keyframes later: that chain has ended
+    independent = ClosureChains(correlation=0.0, gap=3)
+    assert {independent.scale(10 + k, 100 + k) for k in range(5)} == {1.0}
+
+
+def test_chain_correlation_off_leaves_the_graph_unchanged(stream):
+    """closures.chain_correlation 0 (the default) is the independent-closure graph, bit for bit;
+    positive, the chained closures weigh less (and the graph differs)."""
+    base = run(PoseGraphConfig(), stream)
+    off = run(PoseGraphConfig().replace(closures={"chain_correlation": 0.0, "chain_gap_keyframes": 7}), stream)
+    on = run(PoseGraphConfig().replace(closures={"chain_correlation": 0.9}), stream)
+    assert np.array_equal(base.keyframe_poses, off.keyframe_poses)
+    assert len(on.loop_closures) == len(base.loop_closures) > 0
+    assert not np.array_equal(base.keyframe_poses, on.keyframe_poses)
 
 
 def test_gaussian_weights_are_one(stream):

@@ -72,3 +72,34 @@ def test_derived_pose_graph_beats_plaza1_odometry():
     odometry = M.ate_rmse(dead_reckon(log), gt)
     assert M.ate_rmse(pg.keyframe_poses, gt[pg.keyframe_ticks]) < 0.5 * odometry
     assert M.ate_rmse(online, gt) < odometry
+
+
+def _map_ate(log, cfg) -> float:
+    pg = PoseGraphSLAM(cfg)
+    for row in zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist()):
+        pg.step(*row)
+    pg.finalize()
+    return M.ate_rmse(pg.keyframe_poses, log.ground_truth()[pg.keyframe_ticks])
+
+
+def test_closure_chains_keep_coarse_labels_from_folding_plaza1_lanes():
+    """Claim of the Plaza robustness study (docs/sweeps.md): with 4 m scene cells on Plaza 1, whose
+    lanes lie 2.6 m apart, most closures join a neighbouring lane, each closure of a chain pulling
+    the same way. derive_configs reads the revisits' scatter (x1.41 of one cell) and counts the
+    excess as shared along a chain (closures.chain_correlation 0.5): the pose-graph map is then no
+    worse than the odometry (measured map ATE, label seeds 0/1/2: 1.41 / 1.30 / 1.24 m against
+    1.47 m); with every closure independent the lanes fold (seed 0: 2.81 m)."""
+    from harness.run.scale import derive_configs
+    from harness.sweeps.task import condition_log
+
+    ates, odometry = [], []
+    for seed in (0, 1, 2):
+        log = condition_log({"log": "plaza1", "duration": None, "condition": {"cell_size": 4.0}, "seed": seed})
+        _, cfg, _ = derive_configs(log)
+        assert cfg.closures.chain_correlation == pytest.approx(0.5)
+        ates.append(_map_ate(log, cfg))
+        odometry.append(M.ate_rmse(dead_reckon(log), log.ground_truth()))
+        if seed == 0:
+            independent = _map_ate(log, cfg.replace(closures={"chain_correlation": 0.0}))
+    assert np.median(ates) < np.median(odometry)  # 1.30 < 1.47
+    assert independent > odometry[0]  # the cause: 2.81 > 1.47

@@ -268,8 +268,13 @@ def derive_configs(
             if revisits.k_closure > 1.0:
                 # The revisits scatter more than one scene cell: closures (and the bias search's
                 # revisits) get the measured scatter.
+                # Of that scatter, one cell's is the labels' own (independent from closure to
+                # closure); the excess is the offset between two nearby passages, which every
+                # closure of a chain between them shares (ClosureChains): its share of the variance.
                 k_c = revisits.k_closure
-                pg_new = pg_new.replace(closures={"sigma_xy_m": closures.sigma_xy_m * k_c})
+                pg_new = pg_new.replace(
+                    closures={"sigma_xy_m": closures.sigma_xy_m * k_c, "chain_correlation": 1.0 - 1.0 / k_c**2}
+                )
                 rs_new = rs_new.replace(yaw_bias={"revisit_sigma_xy_m": rs_new.yaw_bias.revisit_sigma_xy_m * k_c})
             revisit_text = (
                 f" Revisits ({revisits.pairs} scene-onset pairs, {revisits.inlier_fraction:.0%} inliers): "
@@ -314,7 +319,9 @@ def derive_configs(
         )
         + f"; both yaw_bias.search_still_m_s {rs_new.yaw_bias.search_still_m_s:g}"
         + f"; GTSAM keyframes.distance_m {kf.distance_m:g} m, closures.sigma_xy_m {lc.sigma_xy_m:.3f} m, "
-        f"closures.min_travel_m {lc.min_travel_m:g} m, odometry.sigma_v_m_s {odo.sigma_v_m_s:g}, "
+        f"closures.min_travel_m {lc.min_travel_m:g} m, "
+        + (f"closures.chain_correlation {lc.chain_correlation:g}, " if lc.chain_correlation else "")
+        + f"odometry.sigma_v_m_s {odo.sigma_v_m_s:g}, "
         f"odometry.sigma_w_rad_s {odo.sigma_w_rad_s:g}"
         + (" (the defaults)" if rs_new == rs and pg_new == pg else "")
         + "."
