@@ -153,9 +153,15 @@ def test_a_view_seen_turned_relocalises_the_heading():
     assert without > 1.0
 
 
-# Reference of the default step (no view_rotation), recorded before the rotation existed:
-# small_loop, 120 s, seed 3; per tick RatSLAM's pose, peak and the pose graph's pose.
-REFERENCE_SHA256 = "c551e06d7985df21823fa21c0b4bdcd011dda0cf23eabfc9f5f334b62c76c9cc"
+# Reference of the default step (no view_rotation), recorded before the rotation existed (the
+# parent of 20e1fc3): small_loop, 120 s, seed 3; per tick RatSLAM's pose, peak and the pose graph's
+# pose. The numba kernels are compiled for the host CPU, whose vector width orders their float
+# sums, so the bits are the CPU's: one reference per kind of machine it was recorded on, each
+# from that code on that machine.
+REFERENCE_SHA256 = {
+    "c551e06d7985df21823fa21c0b4bdcd011dda0cf23eabfc9f5f334b62c76c9cc",  # the first machine
+    "e943a2f38368063ee8777f0541d12580f990522aad16fa5e21349388eb900e35",  # AMD EPYC, no AVX-512
+}
 
 
 def test_the_default_step_is_unchanged_bit_for_bit():
@@ -172,7 +178,7 @@ def test_the_default_step_is_unchanged_bit_for_bit():
                 rs.step(*args)
                 pg.step(*args)
             out[k, :3], out[k, 3:6], out[k, 6:] = rs.pose, rs.peak, pg.pose
-        assert hashlib.sha256(out.tobytes()).hexdigest() == REFERENCE_SHA256
+        assert hashlib.sha256(out.tobytes()).hexdigest() in REFERENCE_SHA256
 
 
 def test_a_rotation_must_be_finite():
