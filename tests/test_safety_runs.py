@@ -301,3 +301,32 @@ print({n: (before[n], after[n]) for n in before if after[n] != before[n]})
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "{}", f"compiled after warm-up: {r.stdout}"
+
+
+_CALLBACK_INTERRUPT = """
+import ctypes, os, signal, sys
+from harness.run.workers import interrupt, raise_if_interrupted
+signal.signal(signal.SIGINT, interrupt)
+@ctypes.CFUNCTYPE(None)
+def callback():  # as llvmlite calls back into Python while numba compiles a kernel
+    os.kill(os.getpid(), signal.SIGINT)
+    for _ in range(10**6):  # the handler runs here, inside the callback
+        pass
+ctypes.cast(callback, ctypes.CFUNCTYPE(None))()
+print("callback returned", flush=True)
+try:
+    raise_if_interrupted()
+except KeyboardInterrupt:
+    sys.exit(130)
+"""
+
+
+def test_a_ctrl_c_dropped_in_a_ctypes_callback_is_raised_again():
+    """A Ctrl-C that lands while numba compiles (inside a ctypes callback) raises there and
+    Python drops the exception ("Exception ignored on calling ctypes callback function"); the
+    command must still stop: the interrupt is remembered and raised at the next safe point (the
+    sweep ran to its end before this, exit status 0)."""
+    r = subprocess.run([sys.executable, "-c", _CALLBACK_INTERRUPT], capture_output=True, text=True, timeout=60)
+    assert "callback returned" in r.stdout  # the exception did not get out of the callback
+    assert "KeyboardInterrupt" in r.stderr  # ... Python reported it dropped
+    assert r.returncode == 130, r.stderr

@@ -14,6 +14,7 @@ import sys
 
 from worlds import InputError
 
+from ..run.workers import interrupt
 from . import imports, listing, nav, replay, report, run, simulate, sweep
 from .common import CliError, OneLineParser
 
@@ -32,14 +33,13 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
-
-
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    # a terminated run cleans up its staging directory as Ctrl-C does
-    signal.signal(signal.SIGTERM, _interrupt)
+    # a terminated run cleans up its staging directory as Ctrl-C does; both are remembered, so one
+    # dropped where it landed (numba compiling) is raised again at the next safe point
+    signal.signal(signal.SIGTERM, interrupt)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, interrupt)
     try:
         args.func(args)
     except KeyboardInterrupt:

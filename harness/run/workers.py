@@ -19,6 +19,22 @@ from typing import Any
 import numpy as np
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
+_interrupted = threading.Event()
+
+
+def interrupt(signum, frame) -> None:
+    """Ctrl-C and SIGTERM in the command line's process: remember the interrupt and raise
+    KeyboardInterrupt. Where the exception lands inside a ctypes callback (numba compiling a
+    kernel: "Exception ignored on calling ctypes callback function") Python drops it; the
+    remembered interrupt is raised again by :func:`raise_if_interrupted` at the next safe point."""
+    _interrupted.set()
+    raise KeyboardInterrupt
+
+
+def raise_if_interrupted() -> None:
+    """Raise KeyboardInterrupt if :func:`interrupt` was called (its exception may have been lost)."""
+    if _interrupted.is_set():
+        raise KeyboardInterrupt
 
 
 def die_with_parent(parent: int) -> None:
@@ -144,3 +160,4 @@ def warm_kernels() -> None:
                 rs.step(dt, 0.3, 0.0, side if k > 9 else -1)
             for _ in range(7):
                 rs.step(dt, 0.0, (3.141592653589793 / 2) / (7 * dt), -1)
+    raise_if_interrupted()  # a Ctrl-C while numba compiled may have been dropped in its callback

@@ -27,7 +27,7 @@ from worlds.errors import InputError
 from worlds.files import atomic_write_text, read_json, read_text, write_json
 
 from ..run.directory import OutputError, output_errors, remove_stale
-from ..run.workers import default_workers, pool, sigint_blocked, terminate, warm_kernels
+from ..run.workers import default_workers, pool, raise_if_interrupted, sigint_blocked, terminate, warm_kernels
 from .spec import AXES, SweepSpec, system_config, system_fields
 from .task import run_one
 
@@ -322,6 +322,7 @@ def run_sweep(
             for task, result in results:
                 with output_errors(out):
                     _write_result(runs_dir, task, result)
+                raise_if_interrupted()
                 finished += 1
                 failures += bool(result["error"])
                 elapsed = time.perf_counter() - start
