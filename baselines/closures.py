@@ -95,9 +95,11 @@ class ClosureChains:
     passages moved on by about as many keyframes.  Such closures share the offset between the two
     passages; with a share ``correlation`` (rho) of each closure's variance common to its chain,
     the k-th closure of a chain is given the variance sigma^2 (1 + (k - 1) rho): a chain of n
-    equicorrelated closures tells what its mean tells, variance sigma^2 (1 + (n - 1) rho) / n,
-    and this online weighting (each closure's chain position being all that is known when it is
-    added) approaches that from above.  rho = 0: every closure independent, scale 1.
+    equicorrelated closures tells what its mean tells, variance sigma^2 (1 + (n - 1) rho) / n.
+    Each closure is weighed when it is added, knowing only its place in the chain so far, so a
+    chain's total weight grows with n (as log n for large n) rather than staying at its mean's: less
+    than n independent closures, somewhat more than their mean.  rho = 0: every closure
+    independent, scale 1.
     """
 
     def __init__(self, correlation: float, gap: int) -> None:

@@ -4,7 +4,8 @@ Per tick: integrate the wheel odometry on SE(2); take a keyframe every
 ``keyframes.distance_m`` metres, ``keyframes.angle_rad`` radians or at a scene onset;
 join consecutive keyframes by an odometry between-factor; when a keyframe's scene
 number was seen at earlier keyframes, add a loop-closure factor to the nearest
-such sighting (closures are handed to iSAM2 a few keyframes at a time, at once if
+such sighting (weighed down along a chain of closures between the same two passages when
+``closures.chain_correlation`` is positive; closures are handed to iSAM2 a few keyframes at a time, at once if
 one contradicts the estimate; keyframes with only odometry wait for the next
 update, up to ``optimisation.odometry_batch_keyframes``); optimise online with iSAM2 (robust,
 Gaussian or GNC-verified closures).  A constant yaw-rate bias is either a graph variable
