@@ -107,6 +107,9 @@ class PoseGraphSLAM:
         self._kf_times: list[float] = []
         self._kf_path: list[float] = []
         self._kf_scene: list[int] = []
+        # each tick's anchor in this graph (rewritten by a rebuild): keyframe, offset from it
+        self._tick_kf: list[int] = []
+        self._tick_offset: list[tuple[float, float, float]] = []
         # loop closures
         self._lc_i: list[int] = []
         self._lc_j: list[int] = []
@@ -181,6 +184,9 @@ class PoseGraphSLAM:
             if buf.distance >= cfg.keyframes.distance_m or abs(buf.theta) >= cfg.keyframes.angle_rad or onset:
                 self._add_keyframe(step_index, scene)
         self._prev_scene = scene
+        buf = self._buffer
+        self._tick_kf.append(len(self._kf_ticks) - 1)
+        self._tick_offset.append((buf.x, buf.y, buf.theta))
 
     def _record_keyframe(self, step_index: int, scene: int) -> int:
         j = len(self._kf_ticks)
@@ -556,6 +562,15 @@ class PoseGraphSLAM:
             return -1, (0.0, 0.0, 0.0)
         buf = self._buffer
         return len(self._kf_ticks) - 1, (float(buf.x), float(buf.y), float(buf.theta))
+
+    @property
+    def final_anchors(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every tick's :attr:`anchor` in the graph as it is now: (N,) keyframes and (N, 3) offsets.
+        The same as the anchors read after each tick unless a searched yaw-rate bias rebuilt the
+        graph: a rebuild takes its keyframes anew from the corrected odometry (their indices move)
+        and integrates each offset with the bias, so the ticks before it are placed on the graph
+        that holds them now."""
+        return np.asarray(self._tick_kf, dtype=np.int64), np.asarray(self._tick_offset, dtype=float).reshape(-1, 3)
 
     @property
     def yaw_bias(self) -> float:

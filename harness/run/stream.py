@@ -53,15 +53,20 @@ class Trace:
         """Each tick's pose as the final map places it (None for a system without an ``anchor``):
         the final pose of the node the tick's pose hung from (``node_poses``: RatSLAM's experience
         poses, the pose graph's keyframe poses, after the last tick) composed with the offset the
-        system had from it then; before the first node, the offset from the origin."""
+        system had from it then; before the first node, the offset from the origin. A system whose
+        nodes are renumbered during the run (the pose graph rebuilt after a yaw-rate bias is
+        adopted) gives each tick's anchor in its final graph (``final_anchors``), used instead."""
         if self.anchor_node is None or self.anchor_offset is None:
             return None
+        node, off = self.anchor_node, self.anchor_offset
+        final = getattr(self.system, "final_anchors", None)  # a system that renumbers its nodes
+        if final is not None and len(final[0]) == len(node):
+            node, off = final
         nodes = np.asarray(node_poses, dtype=float).reshape(-1, 3)
-        base = np.zeros((len(self.anchor_node), 3))
-        placed = self.anchor_node >= 0
-        base[placed] = nodes[self.anchor_node[placed]]
+        base = np.zeros((len(node), 3))
+        placed = node >= 0
+        base[placed] = nodes[node[placed]]
         c, s = np.cos(base[:, 2]), np.sin(base[:, 2])
-        off = self.anchor_offset
         x = base[:, 0] + c * off[:, 0] - s * off[:, 1]
         y = base[:, 1] + s * off[:, 0] + c * off[:, 1]
         return np.column_stack([x, y, wrap_angle(base[:, 2] + off[:, 2])])
