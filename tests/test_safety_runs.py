@@ -177,7 +177,12 @@ def test_an_interrupted_sweep_is_one_line(tmp_path, when):
     kids = _children(proc.pid)
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=30)
-    assert proc.returncode == 130, err
+    # 130, or ended by SIGINT itself (a shell reports both as 130): a KeyboardInterrupt that passed
+    # through code an extension ran with PyRun_String (as pybind11's exec does; early in the command,
+    # while modules import) leaves CPython's "unhandled KeyboardInterrupt" flag set, and an
+    # interpreter started with -m then ends by re-raising SIGINT, whatever exit code was asked for
+    # (seen on a slow machine: the one line printed, then -2).
+    assert proc.returncode in (130, -signal.SIGINT), err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
     last = err.strip().splitlines()[-1]
     assert last.startswith("ratslam-harness: interrupted;"), err
