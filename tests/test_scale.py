@@ -193,3 +193,15 @@ def test_revisits_scattered_beyond_one_cell_widen_the_closure_sigma(monkeypatch,
     assert rs.reentry.position_sigma_m == pytest.approx(widened)
     assert rs.yaw_bias.revisit_sigma_xy_m == pytest.approx(widened)
     assert f"x{max(1.0, k_closure):g}." in text
+
+
+def test_the_revisit_fit_does_not_depend_on_how_its_grid_is_cut(monkeypatch):
+    """The grid of noise levels is evaluated in passes bounded in memory (``REVISIT_CHUNK`` grid
+    rows x revisit pairs): passes of a handful of rows give the very same fit as one pass."""
+    from harness.run import scale
+
+    log = _revisiting_drive(heading_drift=0.03, along_noise=0.05)
+    whole = revisit_noise(log, min_travel=8.0, closure_sigma=2.0 / np.sqrt(6.0), margin=2.0)
+    assert whole is not None and whole.pairs * 29 * 29 < scale.REVISIT_CHUNK  # one pass per k_c
+    monkeypatch.setattr(scale, "REVISIT_CHUNK", 7 * whole.pairs)  # 7 rows a pass, the last shorter
+    assert revisit_noise(log, min_travel=8.0, closure_sigma=2.0 / np.sqrt(6.0), margin=2.0) == whole

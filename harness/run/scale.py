@@ -117,6 +117,7 @@ REVISIT_GRID = tuple(2.0 ** (i / 2.0) for i in range(-14, 15))  # 1/128 .. 128
 REVISIT_CLOSURE_GRID = tuple(2.0 ** (i / 2.0) for i in range(-6, 3))  # 1/8 .. 2
 REVISIT_SUPPORT = 2.0  # log-likelihood units: the usual ~95% profile interval (chi2_1 / 2)
 REVISIT_MIN_PAIRS = 30
+REVISIT_CHUNK = 1 << 20  # grid rows x revisit pairs evaluated at once (8 MB per array)
 
 
 def revisit_noise(log, min_travel: float, closure_sigma: float, margin: float = 0.0) -> RevisitNoise | None:
@@ -179,24 +180,29 @@ def revisit_noise(log, min_travel: float, closure_sigma: float, margin: float = 
     e, A, B = np.asarray(e_list), np.asarray(a_list), np.asarray(b_list)
     outlier = 1.0 / ((np.ptp(px) + 2 * margin) * (np.ptp(py) + 2 * margin))
     table: dict[tuple[float, float], tuple[float, float, float]] = {}
+    # every (k_v, k_w) of the grid at once, one row each (k_v major, as the table is filled)
+    grid = [(kv, kw) for kv in REVISIT_GRID for kw in REVISIT_GRID]
+    v2 = np.array([(REFERENCE_NOISE * kv) ** 2 for kv, _ in grid])[:, None]
+    w2 = np.array([(REFERENCE_NOISE * kw) ** 2 for _, kw in grid])[:, None]
+    rows = max(1, REVISIT_CHUNK // len(e))  # grid rows per pass: memory bounded on long logs
     for kc in REVISIT_CLOSURE_GRID:
         c2 = (closure_sigma * kc) ** 2
-        for kv in REVISIT_GRID:
-            for kw in REVISIT_GRID:
-                v2, w2 = (REFERENCE_NOISE * kv) ** 2, (REFERENCE_NOISE * kw) ** 2
-                cxx = v2 * A[:, 0] + w2 * B[:, 0] + c2
-                cxy = v2 * A[:, 1] + w2 * B[:, 1]
-                cyy = v2 * A[:, 2] + w2 * B[:, 2] + c2
-                det = cxx * cyy - cxy * cxy
-                maha = (cyy * e[:, 0] ** 2 - 2.0 * cxy * e[:, 0] * e[:, 1] + cxx * e[:, 1] ** 2) / det
-                g = np.exp(-0.5 * maha) / (2.0 * math.pi * np.sqrt(det))
-                pi = 0.5
-                for _ in range(20):
-                    r = pi * g / (pi * g + (1.0 - pi) * outlier)
-                    pi = float(np.clip(r.mean(), 1e-3, 1.0 - 1e-3))
-                ll = float(np.sum(np.log(pi * g + (1.0 - pi) * outlier)))
-                if ll > table.get((kv, kw), (-math.inf,))[0]:
-                    table[(kv, kw)] = (ll, kc, pi)
+        for lo in range(0, len(grid), rows):
+            v2_, w2_ = v2[lo : lo + rows], w2[lo : lo + rows]
+            cxx = v2_ * A[:, 0] + w2_ * B[:, 0] + c2
+            cxy = v2_ * A[:, 1] + w2_ * B[:, 1]
+            cyy = v2_ * A[:, 2] + w2_ * B[:, 2] + c2
+            det = cxx * cyy - cxy * cxy
+            maha = (cyy * e[:, 0] ** 2 - 2.0 * cxy * e[:, 0] * e[:, 1] + cxx * e[:, 1] ** 2) / det
+            g = np.exp(-0.5 * maha) / (2.0 * math.pi * np.sqrt(det))
+            frac = np.full((len(v2_), 1), 0.5)
+            for _ in range(20):  # EM for the inlier fraction, each row on its own
+                r = frac * g / (frac * g + (1.0 - frac) * outlier)
+                frac = np.clip(r.mean(axis=1, keepdims=True), 1e-3, 1.0 - 1e-3)
+            rows_ll = np.sum(np.log(frac * g + (1.0 - frac) * outlier), axis=1)
+            for key, ll_k, pi_k in zip(grid[lo : lo + rows], rows_ll.tolist(), frac[:, 0].tolist()):
+                if ll_k > table.get(key, (-math.inf,))[0]:
+                    table[key] = (ll_k, kc, pi_k)
     (kv, kw), (ll, kc, pi) = max(table.items(), key=lambda item: item[1][0])
     near = [key for key, val in table.items() if val[0] >= ll - REVISIT_SUPPORT]
     sv, sw = sorted(k[0] for k in near), sorted(k[1] for k in near)
