@@ -558,10 +558,10 @@ class PoseGraphSLAM:
         """``(keyframe, offset)``: the latest keyframe (-1 before the first) and the odometry
         integrated since it, in its frame: :attr:`pose` is that keyframe's estimate composed with
         ``offset``, now or, with the final keyframe poses, as the final graph places this tick."""
-        if not self._kf_ticks:
+        if not self._tick_kf:
             return -1, (0.0, 0.0, 0.0)
-        buf = self._buffer
-        return len(self._kf_ticks) - 1, (float(buf.x), float(buf.y), float(buf.theta))
+        x, y, theta = self._tick_offset[-1]
+        return self._tick_kf[-1], (float(x), float(y), float(theta))
 
     @property
     def final_anchors(self) -> tuple[np.ndarray, np.ndarray]:
