@@ -25,6 +25,19 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+def recording(no_recording: bool):
+    """The recorder factory of a run (None with ``--no-recording``): Rerun's SDK is loaded when the
+    first recording starts, after the command's input has been checked."""
+    return None if no_recording else _record_to_rrd
+
+
+def _record_to_rrd(*args, **kwargs):
+    """:func:`harness.record.recorder.recorder_factory`, imported on first use."""
+    from ..record.recorder import recorder_factory
+
+    return recorder_factory(*args, **kwargs)
+
+
 # ---------------------------------------------------------------------------- argument types
 
 

@@ -48,13 +48,14 @@ def add_parser(sub) -> None:
 def command(args) -> None:
     from worlds.files import read_json
 
-    from ..navigation.experiment import run_nav_experiment
     from ..run.budget import check_goals, check_ticks
 
     world = load_world(args.world)
     check_goals("--goals", args.goals, args.yes)
     if args.exploration is not None:
         check_ticks(f"--exploration {args.exploration:g}", args.exploration * world.tick_rate, args.yes)
+    from ..navigation.experiment import run_nav_experiment  # the systems, once the input is checked
+
     out = run_nav_experiment(
         args.world,
         out=args.out,

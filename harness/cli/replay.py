@@ -3,7 +3,7 @@ systems."""
 
 from __future__ import annotations
 
-from .common import fov, print_run_summary, ratslam_choice, ratslam_option, yes_option
+from .common import fov, print_run_summary, ratslam_choice, ratslam_option, recording, yes_option
 
 
 def add_parser(sub) -> None:
@@ -32,7 +32,6 @@ def add_parser(sub) -> None:
 
 def command(args) -> None:
     from ..figures.run import replay
-    from ..record.recorder import recorder_factory
     from ..run.config_file import read_config_file
 
     config = read_config_file(args.config) if args.config else None
@@ -40,7 +39,7 @@ def command(args) -> None:
         args.log,
         args.out,
         show_progress=not args.quiet,
-        recorder_factory=None if args.no_recording else recorder_factory,
+        recorder_factory=recording(args.no_recording),
         config=config,
         ratslam=ratslam_choice(args.ratslam, config, "defaults"),
         yes=args.yes,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from worlds import load_world
 
-from .common import positive, print_run_summary, ratslam_choice, ratslam_option, seed, workers, yes_option
+from .common import positive, print_run_summary, ratslam_choice, ratslam_option, recording, seed, workers, yes_option
 
 
 def add_parser(sub) -> None:
@@ -41,20 +41,20 @@ def add_parser(sub) -> None:
 
 def command(args) -> None:
     from ..figures.registry import get_figure
-    from ..figures.run import run_figure
-    from ..record.recorder import recorder_factory
     from ..run.config_file import read_config_file
 
     fig = get_figure(args.figure)  # unknown names fail before anything starts
     config = read_config_file(args.config) if args.config else None
     _check_figure_size(fig, config, args.duration, args.yes)
+    from ..figures.run import run_figure  # the systems and the report, once the input is checked
+
     out = run_figure(
         args.figure,
         out=args.out,
         seed=args.seed,
         duration=args.duration,
         show_progress=not args.quiet,
-        recorder_factory=None if args.no_recording else recorder_factory,
+        recorder_factory=recording(args.no_recording),
         workers=args.workers,
         config=config,
         ratslam=ratslam_choice(args.ratslam, config, "both"),

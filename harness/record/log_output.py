@@ -15,7 +15,6 @@ from pathlib import Path
 from worlds import ObservationLog, load_world, simulate
 from worlds.camera import Camera
 from worlds.files import atomic_path
-from worlds.plot import plot_run
 from worlds.world import MAX_TICKS
 
 from ..run.budget import check_ticks
@@ -108,6 +107,8 @@ def simulate_to_files(
 
         frames = Camera(world, camera, seed=seed).render_poses(log.ground_truth(), log.t)
         log = dataclasses.replace(log, image=write_images(frames, out, simulated_camera(world, camera)))
+    from worlds.plot import plot_run  # matplotlib: loaded where it draws, not by every command
+
     gt = log.ground_truth()
     with output_errors(out), atomic_path(out) as csv_tmp, atomic_path(png) as png_tmp:
         log.write_csv(csv_tmp)

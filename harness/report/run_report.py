@@ -17,7 +17,6 @@ from worlds.files import atomic_write_text, read_tum
 
 from ..run.directory import add_to_manifest
 from ..run.workers import fork_context, free_cores, map_in_processes
-from . import plots
 from .results import ClaimResult, RunResult, VariantResult
 
 PUBLISHED = "published"  # the alternative RatSLAM run beside the defaults (harness.figures.run)
@@ -94,6 +93,8 @@ def _references(vdir: Path, maps: dict[str, np.ndarray]) -> tuple[np.ndarray, np
 
 def variant_panels(vdir: Path, world: World | None, maps: dict[str, np.ndarray] | None = None) -> list[Path]:
     """One variant's panels, from ``maps`` (default: its maps.npz)."""
+    from . import plots  # matplotlib: loaded where a panel is drawn, not by every command
+
     if maps is None:
         maps = _maps(vdir / "maps.npz")
     references = _references(vdir, maps)
