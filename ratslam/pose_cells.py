@@ -339,3 +339,28 @@ class PoseCells:
             if i != bi:
                 sums += K.neighbourhood_sums(act, (cg - rad - start) % n, rad, n)
         self._peak = K.refine_peak(cg, sums, rad, n)[[1, 2, 0]]
+
+
+# ---------------------------------------------------------------------- compiling the kernels
+KERNEL_PARTS = ("iteration", "boxes")
+
+
+def compile_kernels(config: RatSLAMConfig, part: str) -> None:
+    """Compile one part of the kernels a :class:`PoseCells` step uses (or load it from numba's disk
+    cache), so that two processes can compile the two parts side by side: ``"iteration"``, one
+    step of a network held in one box (the attractor iteration, group by group); ``"boxes"``,
+    the rest (the groups of a box, boxes from injected cells, merging, path integration, peak)."""
+    cells = PoseCells(config)
+    if part == "iteration":
+        cells.step(0.0, 0.0)
+    elif part == "boxes":
+        cfg = config.pose_cells
+        pose_cell_split.groups(cells._boxes[0][1], cells._n, 2 * cfg.excite_radius_cells + cfg.inhibit_radius_cells)
+        for x in (10, 4):  # a new box, then cells near it (added inside, merged)
+            cells.inject(np.array([[x, 0, 0]]), 0.5)
+        cells._merge_interacting()
+        cells.path_integrate(0.1, 0.05)
+        cells._update_peak()
+        cells.cells_at_least(0.5)
+    else:
+        raise ValueError(f"unknown kernel part {part!r} (known: {', '.join(KERNEL_PARTS)})")

@@ -12,6 +12,17 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import pytest
 
 
+def pytest_configure(config):
+    """Compile RatSLAM's numba kernels into numba's disk cache once, before the xdist workers
+    start (on a fresh clone they would each compile them, and so would every command a test
+    starts before the cache is written); the workers load them from the cache."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    from harness.run.workers import warm_kernels
+
+    warm_kernels()
+
+
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(config, items):
     """Keep each ``xdist_group`` on one worker under pytest 9.

@@ -141,13 +141,18 @@ def map_in_processes(fn: Callable[[Any], Any], jobs: Iterable[Any], workers: int
 def warm_kernels() -> None:
     """Compile RatSLAM's numba kernels in this process (or load them from numba's disk cache):
     forked workers inherit them and spawned ones load the cache, instead of each compiling them
-    again (a first compile takes tens of seconds per process on a loaded machine). A 4 m square
-    driven twice with a scene per side: path integration, view injection, experience creation,
-    loop closure and map correction."""
+    again (a first compile takes tens of seconds per process on a loaded machine). The pose cells'
+    kernels compile in two parts side by side, one in a forked helper that leaves them in the cache
+    (:func:`ratslam.pose_cells.compile_kernels`); then a 4 m square driven twice with a scene per
+    side: path integration, view injection, experience creation, loop closure and map correction."""
     from ratslam import PoseCellConfig, RatSLAM, RatSLAMConfig
-    from ratslam.pose_cells import PoseCells
+    from ratslam.pose_cells import PoseCells, compile_kernels
 
     config = RatSLAMConfig(pose_cells=PoseCellConfig(nx=20, ny=20, n_theta=36))
+    helper = fork_context().Process(target=compile_kernels, args=(config, "boxes"), daemon=True)
+    helper.start()
+    compile_kernels(config, "iteration")
+    helper.join()
     cells = PoseCells(config)  # a packet injected apart (a new box), then near it (boxes merged)
     for x in (10, 4, 2):
         cells.inject(np.array([[x, 0, 0]]), 0.5)
