@@ -138,6 +138,14 @@ def map_in_processes(fn: Callable[[Any], Any], jobs: Iterable[Any], workers: int
     return results
 
 
+def _compile_kernels(parent: int, config, part: str) -> None:
+    """A helper of :func:`warm_kernels`: one part of the pose cells' kernels, set up as a worker."""
+    from ratslam.pose_cells import compile_kernels
+
+    worker_init(parent)
+    compile_kernels(config, part)
+
+
 def warm_kernels() -> None:
     """Compile RatSLAM's numba kernels in this process (or load them from numba's disk cache):
     forked workers inherit them and spawned ones load the cache, instead of each compiling them
@@ -149,10 +157,16 @@ def warm_kernels() -> None:
     from ratslam.pose_cells import PoseCells, compile_kernels
 
     config = RatSLAMConfig(pose_cells=PoseCellConfig(nx=20, ny=20, n_theta=36))
-    helper = fork_context().Process(target=compile_kernels, args=(config, "boxes"), daemon=True)
-    helper.start()
-    compile_kernels(config, "iteration")
-    helper.join()
+    with sigint_blocked():
+        helper = fork_context().Process(target=_compile_kernels, args=(os.getpid(), config, "boxes"), daemon=True)
+        helper.start()
+    try:
+        compile_kernels(config, "iteration")
+        helper.join()
+    finally:
+        if helper.is_alive():  # interrupted: the helper goes too
+            helper.terminate()
+            helper.join()
     cells = PoseCells(config)  # a packet injected apart (a new box), then near it (boxes merged)
     for x in (10, 4, 2):
         cells.inject(np.array([[x, 0, 0]]), 0.5)
