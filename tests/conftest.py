@@ -17,7 +17,7 @@ def pytest_configure(config):
     """Compile RatSLAM's numba kernels into numba's disk cache once, before the xdist workers
     start (on a fresh clone they would each compile them, and so would every command a test
     starts before the cache is written); the workers load them from the cache."""
-    if os.environ.get("PYTEST_XDIST_WORKER"):
+    if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly:
         return
     from harness.run.workers import warm_kernels
 
