@@ -14,7 +14,7 @@ import sys
 
 from worlds import InputError
 
-from ..run.workers import interrupt
+from ..run.workers import interrupt, quiet_dropped_interrupt
 from . import imports, listing, nav, replay, report, run, simulate, sweep
 from .common import CliError, OneLineParser
 
@@ -40,6 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, interrupt)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         signal.signal(signal.SIGINT, interrupt)
+    sys.unraisablehook = quiet_dropped_interrupt
     try:
         args.func(args)
     except KeyboardInterrupt:

@@ -31,6 +31,16 @@ def interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+def quiet_dropped_interrupt(unraisable) -> None:
+    """``sys.unraisablehook`` of the command line: an interrupt Python dropped where it landed (a
+    ctypes callback, numba compiling or loading a kernel) is not printed, since
+    :func:`raise_if_interrupted` raises it again at the next safe point and the command then says
+    it was interrupted in one line; anything else is reported as Python would."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and _interrupted.is_set():
+        return
+    sys.__unraisablehook__(unraisable)
+
+
 def raise_if_interrupted() -> None:
     """Raise KeyboardInterrupt if :func:`interrupt` was called (its exception may have been lost)."""
     if _interrupted.is_set():
