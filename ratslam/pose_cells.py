@@ -354,8 +354,7 @@ def compile_kernels(config: RatSLAMConfig, part: str) -> None:
     if part == "iteration":
         cells.step(0.0, 0.0)
     elif part == "boxes":
-        cfg = config.pose_cells
-        pose_cell_split.groups(cells._boxes[0][1], cells._n, 2 * cfg.excite_radius_cells + cfg.inhibit_radius_cells)
+        pose_cell_split.groups(cells._boxes[0][1], cells._n, cells._reach)
         for x in (10, 4):  # a new box, then cells near it (added inside, merged)
             cells.inject(np.array([[x, 0, 0]]), 0.5)
         cells._merge_interacting()
