@@ -74,6 +74,11 @@ class PoseGraphNavigator:
         """Current positions (K, 2) of keyframes ``nodes``."""
         return self._keyframe_poses()[np.asarray(nodes, dtype=np.int64), :2]
 
+    @property
+    def rebuilds(self) -> int:
+        """How often an adopted yaw-rate bias rebuilt the graph (keyframes renumbered)."""
+        return self.slam.yaw_bias_rebuilds
+
     def node_pose(self, node: int) -> tuple[float, float, float]:
         """Current pose (x, y, θ) of keyframe ``node``."""
         x, y, th = self._keyframe_poses()[int(node)]

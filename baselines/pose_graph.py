@@ -24,6 +24,7 @@ import numpy as np
 from gtsam.symbol_shorthand import B, X
 
 from slamkit.arcs import check_tick
+from slamkit.poses import fit_se2
 from slamkit.yaw_bias import YawBiasSearch
 
 from .closures import ClosureChains, SceneIndex
@@ -674,16 +675,8 @@ class PoseGraphSLAM:
 
 
 def _fit_se2(src: np.ndarray, dst: np.ndarray) -> gtsam.Pose2:
-    """The rotation and translation (no scale) that best map points ``src`` onto ``dst``
-    (least squares, Umeyama / Kabsch in 2D)."""
-    if len(src) < 2:
-        return gtsam.Pose2()
-    ms, md = src.mean(axis=0), dst.mean(axis=0)
-    a, b = src - ms, dst - md
-    angle = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
-    c, s = math.cos(angle), math.sin(angle)
-    t = md - np.array([c * ms[0] - s * ms[1], s * ms[0] + c * ms[1]])
-    return gtsam.Pose2(float(t[0]), float(t[1]), angle)
+    """:func:`slamkit.poses.fit_se2` as a ``gtsam.Pose2``."""
+    return gtsam.Pose2(*fit_se2(src, dst))
 
 
 def _scene_number(scene_id) -> int:

@@ -211,6 +211,12 @@ class YawBiasConfig(YawBiasSearchConfig):
     """An adopted bias change that turns the map by more than this over the time it spans has the
     map correction solved to its fixed point at once (below it the per-tick correction carries
     the corrected transitions; inf: never). See the docs section."""
+    rebuild: bool = True
+    """An adopted bias rebuilds the system from the first tick: the pose cells, view cells and
+    experience map stepped again through the ticks so far with the bias taken off (the pose
+    graph rebuilds its graph alike). Off: the map built so far is corrected
+    (``settle_turn_deg``), while the pose cells and view cells keep the places where the biased
+    odometry laid them. See the docs section."""
 
 
 @dataclass(frozen=True)

@@ -68,6 +68,11 @@ class ExperienceMapNavigator:
         """The current experience (-1 before the first)."""
         return self.slam.current_experience
 
+    @property
+    def rebuilds(self) -> int:
+        """How often an adopted yaw-rate bias rebuilt the map (experiences renumbered)."""
+        return self.slam.rebuilds
+
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
         """Advance the SLAM one tick on an observation."""
         self.slam.step(dt, v_trans, v_rot, scene_id)
@@ -110,6 +115,11 @@ class LocalisingNavigator:
         """Map pose (x, y, θ) of experience ``node``."""
         x, y, th = self.localiser.experience_poses[int(node)]
         return float(x), float(y), float(th)
+
+    @property
+    def rebuilds(self) -> int:
+        """The map is fixed: never rebuilt."""
+        return 0
 
     @property
     def lost(self) -> bool:

@@ -11,7 +11,9 @@ import numpy as np
 
 from slamkit.arcs import check_tick
 from slamkit.config_fields import from_dict
+from slamkit.poses import fit_se2, place
 
+from .columns import Growable
 from .config import RatSLAMConfig
 from .experience_map import ExperienceMap
 from .local_view import LocalView
@@ -23,7 +25,26 @@ from .yaw_bias_correction import YawBiasCorrection
 # format 2: the latest snap; 3: nested config; 4: path noise per experience; 5: loop-closure
 # candidate and the latest re-entry's fix (a state without the yaw-bias search's arrays, saved
 # before it, loads with the search starting afresh)
-_FORMAT = "ratslam-state-5"
+# format 6: the ticks taken and each tick's anchor (kept for a rebuild after an adopted yaw-rate bias)
+_FORMAT = "ratslam-state-6"
+
+
+def _input_columns() -> Growable:
+    """Each tick's inputs as stepped (the yaw rate as logged, before any bias is taken off)."""
+    return Growable(
+        {
+            "dt": ((), float),
+            "v_trans": ((), float),
+            "v_rot": ((), float),
+            "scene": ((), np.int64),
+            "rotation": ((), float),
+        }
+    )
+
+
+def _anchor_columns() -> Growable:
+    """Each tick's anchor: the current experience and the offset from it."""
+    return Growable({"node": ((), np.int64), "offset": ((3,), float)})
 
 
 class RatSLAM:
@@ -47,15 +68,25 @@ class RatSLAM:
 
     def __init__(self, config: RatSLAMConfig | None = None):
         self._config = config if config is not None else RatSLAMConfig()
+        self._bias = math.radians(self._config.pose_cells.path_integration_bias_deg_s)
+        self._grid = np.array(self._config.shape, dtype=float)
+        self._yaw_bias = YawBiasCorrection(self._config)
+        yb = self._config.yaw_bias
+        # the ticks taken and where each left the robot, kept while a rebuild may need them
+        self._history = _input_columns() if yb.search and yb.rebuild else None
+        self._anchors = _anchor_columns() if self._history is not None else None
+        self.rebuilds = 0
+        """How often an adopted yaw-rate bias rebuilt the system (``yaw_bias.rebuild``)."""
+        self._reset_network()
+
+    def _reset_network(self) -> None:
+        """Fresh pose cells, view cells, experience map and view gate, at tick 0."""
         self.pose_cells = PoseCells(self._config)
         self.local_view = LocalView(self._config)
         self.experience_map = ExperienceMap(self._config)
+        self._view_gate = ViewGate(self._config)
         self._tick = 0
         self._snapped = False
-        self._bias = math.radians(self._config.pose_cells.path_integration_bias_deg_s)
-        self._grid = np.array(self._config.shape, dtype=float)
-        self._view_gate = ViewGate(self._config)
-        self._yaw_bias = YawBiasCorrection(self._config)
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float = 0.0) -> None:
@@ -63,12 +94,18 @@ class RatSLAM:
         (int, -1 = nothing recognisable) and ``view_rotation`` (rad: a camera view's rotation
         relative to its template, :mod:`ratslam.view_matcher`; the view's energy is injected at the
         template's heading plus it; 0 for scene numbers)."""
-        k = self._tick  # step index of this tick
         scene_id = int(scene_id)
         self._check_tick(dt, v_trans, v_rot, scene_id)
         if not math.isfinite(view_rotation):
             raise ValueError(f"step: view_rotation must be a finite number of radians, got {view_rotation!r}")
-        v_rot = self._unbiased(dt, v_trans, v_rot, scene_id)
+        unbiased = self._unbiased(dt, v_trans, v_rot, scene_id)
+        if self._history is not None:
+            self._history.append(dt=dt, v_trans=v_trans, v_rot=v_rot, scene=scene_id, rotation=view_rotation)
+        self._advance(self._tick, dt, v_trans, unbiased, scene_id, view_rotation)
+
+    def _advance(self, k: int, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float) -> None:
+        """Tick ``k`` through the view cells, pose cells and experience map, ``v_rot`` the yaw
+        rate with the bias found so far taken off."""
         pc = self.pose_cells
         old_peak = pc.peak
         self.local_view.inject(scene_id, k, pc, view_rotation)
@@ -81,7 +118,9 @@ class RatSLAM:
         em.update(k, new_peak, self._view_gate.confirmed(k, scene_id, self._snapped))
         for _ in range(self._config.experience_map.correction_iterations):
             em.correct()
-        self._tick += 1
+        if self._anchors is not None:
+            self._anchors.append(node=em.current, offset=em.offset)
+        self._tick = k + 1
 
     def _check_tick(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> None:
         """A ValueError naming the problem for a tick the pipeline cannot take."""
@@ -95,9 +134,35 @@ class RatSLAM:
             )
 
     def _unbiased(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> float:
-        """The tick's yaw rate less the bias found so far; a newly adopted bias first corrects
-        the map's transitions (:meth:`ratslam.yaw_bias_correction.YawBiasCorrection.unbiased`)."""
-        return self._yaw_bias.unbiased(self.experience_map, dt, v_trans, v_rot, scene_id)
+        """The tick's yaw rate less the bias found so far; a newly adopted bias first rebuilds
+        the system (``yaw_bias.rebuild``) or corrects the map's transitions
+        (:meth:`ratslam.yaw_bias_correction.YawBiasCorrection.unbiased`)."""
+        rebuild = self._rebuild if self._history is not None else None
+        return self._yaw_bias.unbiased(self.experience_map, dt, v_trans, v_rot, scene_id, rebuild)
+
+    def _rebuild(self, bias: float) -> None:
+        """Step fresh pose cells, view cells and experience map through every tick so far with
+        ``bias`` (rad/s) taken off the yaw rate, as if it had been known from the first tick. The
+        new map is then laid onto the frame of the map before the rebuild (the SE(2)
+        least-squares fit of where each map places the ticks so far), so the map the user holds
+        does not turn or shift as a whole at the correction; only its shape changes."""
+        assert self._history is not None and self._anchors is not None
+        before = self._placed()
+        self._reset_network()
+        self._anchors = _anchor_columns()
+        h = self._history
+        rows = zip(*(h.view(k).tolist() for k in ("dt", "v_trans", "v_rot", "scene", "rotation")))
+        for k, (dt, v, w, scene, rotation) in enumerate(rows):
+            self._advance(k, dt, v, w - bias, scene, rotation)
+        frame = fit_se2(self._placed()[:, :2], before[:, :2])
+        em = self.experience_map
+        em.set_poses(place(np.array([frame]), np.zeros(em.size, dtype=np.int64), em.poses))
+        self.rebuilds += 1
+
+    def _placed(self) -> np.ndarray:
+        """Each tick so far as the current map places it (its anchor on the map's poses)."""
+        assert self._anchors is not None
+        return place(self.experience_map.poses, self._anchors.view("node"), self._anchors.view("offset"))
 
     # ------------------------------------------------------------------ read access
     @property
@@ -124,6 +189,16 @@ class RatSLAM:
         final map places this tick."""
         em = self.experience_map
         return em.current, em.offset
+
+    @property
+    def final_anchors(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Each tick's anchor in the final map, ``(experience (N,), offset (N, 3))``, as
+        :attr:`anchor` gave it after that tick or, for the ticks before a rebuild, as the rebuilt
+        map holds it (experiences are renumbered by a rebuild). None unless ``yaw_bias.rebuild``
+        (with the search on) keeps them."""
+        if self._anchors is None:
+            return None
+        return self._anchors.view("node").copy(), self._anchors.view("offset").copy()
 
     @property
     def yaw_bias(self) -> float:
@@ -217,6 +292,10 @@ class RatSLAM:
         arrays.update(self.experience_map.get_state())
         arrays["rs_tick"] = np.array([self._tick, int(self._snapped), *self._view_gate.get_state()], dtype=np.int64)
         arrays.update(self._yaw_bias.get_state())  # the search's adopted bias is in its state
+        arrays["rs_rebuilds"] = np.array([self.rebuilds], dtype=np.int64)
+        for prefix, columns in (("rs_history_", self._history), ("rs_anchors_", self._anchors)):
+            if columns is not None:
+                arrays.update({prefix + k: columns.view(k).copy() for k in columns.cols})
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
@@ -241,4 +320,8 @@ class RatSLAM:
         obj._snapped = bool(snapped)
         obj._view_gate.set_state(s["rs_tick"][2:])
         obj._yaw_bias.set_state(s)
+        obj.rebuilds = int(s["rs_rebuilds"][0])
+        for prefix, columns in (("rs_history_", obj._history), ("rs_anchors_", obj._anchors)):
+            if columns is not None:
+                columns.load({k: s[prefix + k] for k in columns.cols})
         return obj

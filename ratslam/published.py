@@ -122,6 +122,7 @@ PUBLISHED: dict[str, Reading] = {
     "yaw_bias.revisit_sigma_xy_m": _inert(1.0 / math.sqrt(6.0)),
     "yaw_bias.revisit_sigma_heading_deg": _inert(90.0 / math.sqrt(6.0)),
     "yaw_bias.settle_turn_deg": _inert(0.0),
+    "yaw_bias.rebuild": _inert(True),
     # --- the view-template matcher (camera streams only)
     "view.crop_top": _scale("the camera's image: what to crop is a property of the robot's camera"),
     "view.crop_bottom": _scale("the camera's image"),

@@ -10,6 +10,7 @@ transitions each carry the bias's turn and the relaxation (eqs 12-14) cannot tak
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -45,15 +46,27 @@ class YawBiasCorrection:
         """The yaw-rate bias (rad/s) taken off the odometry: 0 until the search adopts one."""
         return self.search.bias if self.search is not None else 0.0
 
-    def unbiased(self, em: ExperienceMap, dt: float, v_trans: float, v_rot: float, scene_id: int) -> float:
-        """The tick's yaw rate less the bias found so far; a newly adopted bias first corrects
-        the map's transitions (settling the map when the change turns it by more than
-        ``yaw_bias.settle_turn_deg`` over its span)."""
+    def unbiased(
+        self,
+        em: ExperienceMap,
+        dt: float,
+        v_trans: float,
+        v_rot: float,
+        scene_id: int,
+        rebuild: Callable[[float], None] | None = None,
+    ) -> float:
+        """The tick's yaw rate less the bias found so far. A newly adopted bias is first handed to
+        ``rebuild`` (the system stepped again from its first tick with the bias taken off) or,
+        without one, corrects the map's transitions (settling the map when the change turns it
+        by more than ``yaw_bias.settle_turn_deg`` over its span)."""
         search = self.search
         if search is None:
             return v_rot
         before = search.bias
         if search.add(dt, v_trans, v_rot, scene_id) is not None:
+            if rebuild is not None:
+                rebuild(search.bias)
+                return v_rot - search.bias
             change = search.bias - before
             elapsed = search.time - dt  # the map's span before this tick
             settle_map = abs(change) * elapsed > math.radians(self.config.yaw_bias.settle_turn_deg)

@@ -76,6 +76,7 @@ class _PointRobot:
         self.edges = np.stack((np.arange(n - 1), np.arange(1, n)), axis=1)
         self.pose = (0.0, 0.0, 0.0)
         self.plans = 0
+        self.rebuilds = 0
 
     def plan(self, goal_xy):
         self.plans += 1
@@ -89,6 +90,23 @@ class _PointRobot:
         x, y, th = self.pose
         th += w * dt
         self.pose = (x + v * dt * math.cos(th), y + v * dt * math.sin(th), th)
+
+
+def test_a_route_on_a_rebuilt_map_is_planned_again():
+    """A map built anew (a yaw-rate bias adopted: its nodes renumbered, fewer of them) has the
+    route planned again before the next command reads its nodes."""
+    nav = _PointRobot(11)
+    ctrl = RouteController(nav)
+    assert ctrl.set_goal((9.5, 0.0)) == "ok"
+    ctrl.command(0.1)
+    assert ctrl.route_nodes.max() >= 9 and nav.plans == 1
+    nav.xy = np.stack((np.arange(0.0, 11.0, 2.0), np.zeros(6)), axis=1)  # 6 nodes 2 m apart
+    nav.edges = np.stack((np.arange(5), np.arange(1, 6)), axis=1)
+    nav.rebuilds = 1
+    v, _ = ctrl.command(0.1)
+    assert nav.plans == 2 and ctrl.route_nodes.max() <= 5 and v > 0.0
+    ctrl.command(0.1)
+    assert nav.plans == 2  # planned once per rebuild
 
 
 def test_controller_is_given_only_the_map():

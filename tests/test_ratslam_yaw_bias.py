@@ -168,3 +168,73 @@ def test_save_and_load_mid_search_continues_bit_for_bit(office_biased, tmp_path)
     assert a.yaw_bias == b.yaw_bias != 0.0
     np.testing.assert_array_equal(a.experience_poses, b.experience_poses)
     assert a.pose == b.pose
+
+
+def _pairwise(poses: np.ndarray) -> np.ndarray:
+    return np.hypot(*(poses[:, None, :2] - poses[None, :, :2]).transpose(2, 0, 1))
+
+
+def test_a_rebuild_is_the_system_stepped_with_the_bias_known_from_the_first_tick():
+    """``yaw_bias.rebuild``: at an adoption the pose cells, view cells and experience map are
+    stepped again from the first tick with the bias taken off. Right after it the system is the
+    one a search-off RatSLAM builds from the corrected odometry: the same pose cells, experiences
+    and transitions, each tick on the same experience, the map the same up to a rigid motion
+    (laid onto the frame of the map before the rebuild)."""
+    from worlds import load_world, simulate
+
+    log = simulate(load_world("small_loop"), duration=300.0, seed=0, bias_deg_s=1.5)
+    rows = list(zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist()))
+    a = RatSLAM()
+    for r in rows:
+        before = None if a.experience_map.size == 0 else a.experience_poses
+        anchors_before = a.final_anchors
+        a.step(*r)
+        if a.rebuilds:
+            break
+    k = a.tick - 1  # the tick whose step adopted the bias
+    assert a.rebuilds == 1 and before is not None and anchors_before is not None
+    ref = RatSLAM(RatSLAMConfig().replace(yaw_bias={"search": False}))
+    for dt, v, w, s in rows[: k + 1]:
+        ref.step(dt, v, w - a.yaw_bias, s)
+    np.testing.assert_array_equal(a.pose_cell_activity, ref.pose_cell_activity)
+    np.testing.assert_array_equal(a.links, ref.links)
+    np.testing.assert_array_equal(a.experience_cells, ref.experience_cells)
+    node, offset = a.final_anchors
+    assert len(node) == k + 1
+    assert a.experience_map.size < len(before)  # fewer experiences once the loop closes true
+    np.testing.assert_allclose(_pairwise(a.experience_poses), _pairwise(ref.experience_poses), atol=1e-6)
+    # the new map on the old one's frame: the ticks' placements keep their centroid
+    from slamkit.poses import place
+
+    old = place(before, *anchors_before)
+    new = place(a.experience_poses, node[:k], offset[:k])
+    np.testing.assert_allclose(new[:, :2].mean(axis=0), old[:, :2].mean(axis=0), atol=0.05)
+
+
+def test_without_the_search_no_ticks_are_kept():
+    """The paper's odometry as it comes (``yaw_bias.search`` off) or ``rebuild`` off: nothing to
+    rebuild, no history kept, no final anchors beyond the online ones."""
+    for cfg in (RatSLAMConfig.published(), RatSLAMConfig().replace(yaw_bias={"rebuild": False})):
+        slam = RatSLAM(cfg)
+        slam.step(0.1, 0.3, 0.0, 1)
+        assert slam.final_anchors is None and slam.rebuilds == 0
+
+
+def test_save_and_load_after_a_rebuild_continues_bit_for_bit(office_biased, tmp_path):
+    log = office_biased
+    rows = list(zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist()))
+    a = RatSLAM()
+    k = 0
+    while a.rebuilds == 0:
+        a.step(*rows[k])
+        k += 1
+    a.save(tmp_path / "s.npz")
+    b = RatSLAM.load(tmp_path / "s.npz")
+    assert b.rebuilds == 1 and b.yaw_bias == a.yaw_bias
+    for r in rows[k:]:
+        a.step(*r)
+        b.step(*r)
+    np.testing.assert_array_equal(a.experience_poses, b.experience_poses)
+    for x, y in zip(a.final_anchors, b.final_anchors):
+        np.testing.assert_array_equal(x, y)
+    assert a.pose == b.pose

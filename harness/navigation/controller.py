@@ -69,6 +69,11 @@ class NavigableMap(Protocol):
 
     def node_xy(self, nodes: np.ndarray) -> np.ndarray: ...
 
+    @property
+    def rebuilds(self) -> int:
+        """How often the map was built anew (its nodes renumbered): a route is planned again."""
+        ...
+
 
 class LosableMap(NavigableMap, Protocol):
     """A navigator that can tell it is lost and offer its way back (the map localiser's)."""
@@ -121,6 +126,7 @@ class RouteController:
         self._backing = 0.0  # time left reversing off an obstacle
         self._t = 0.0
         self._best, self._t_best, self._t_plan = math.inf, 0.0, -math.inf
+        self._planned_on = 0  # the map's rebuild count when the route was planned
 
     def set_goal(self, goal_xy) -> str:
         """Plan to ``goal_xy`` (map frame); returns the plan's status ("ok" or why not)."""
@@ -135,6 +141,7 @@ class RouteController:
         route = self.nav.plan(self.goal)
         self.status = route.status
         self._nodes = np.asarray(route.nodes, dtype=np.int64) if route.found else np.zeros(0, dtype=np.int64)
+        self._planned_on = self.nav.rebuilds
         self._s = -1.0
         self._best, self._t_best, self._t_plan = math.inf, self._t, self._t
         return self.status
@@ -169,6 +176,10 @@ class RouteController:
         back = self._way_back(x, y, th)
         if back is not None:
             return back
+        if self.nav.rebuilds != self._planned_on:  # the route's nodes are another map's
+            self._replan()
+            if self.status != "ok":
+                return self._out(0.0, 0.0)
         # the route as it lies in the map now: its nodes, then the goal point
         pts = np.vstack((self.nav.node_xy(self._nodes), [self.goal]))
         along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from slamkit.poses import wrap_angle
+from slamkit.poses import place
 from worlds import ObservationLog
 from worlds.errors import InputError
 
@@ -62,14 +62,7 @@ class Trace:
         final = getattr(self.system, "final_anchors", None)  # a system that renumbers its nodes
         if final is not None and len(final[0]) == len(node):
             node, off = final
-        nodes = np.asarray(node_poses, dtype=float).reshape(-1, 3)
-        base = np.zeros((len(node), 3))
-        placed = node >= 0
-        base[placed] = nodes[node[placed]]
-        c, s = np.cos(base[:, 2]), np.sin(base[:, 2])
-        x = base[:, 0] + c * off[:, 0] - s * off[:, 1]
-        y = base[:, 1] + s * off[:, 0] + c * off[:, 1]
-        return np.column_stack([x, y, wrap_angle(base[:, 2] + off[:, 2])])
+        return place(np.asarray(node_poses, dtype=float).reshape(-1, 3), node, off)
 
 
 OnTick = Callable[[int, Mapping[str, Any]], None]
