@@ -20,7 +20,7 @@ from .local_view import LocalView
 from .pose_cells import PoseCells
 from .snaps import is_snap
 from .view_gate import ViewGate
-from .yaw_bias_correction import YawBiasCorrection
+from .yaw_bias_correction import YawBiasCorrection, settle
 
 # format 2: the latest snap; 3: nested config; 4: path noise per experience; 5: loop-closure
 # candidate and the latest re-entry's fix (a state without the yaw-bias search's arrays, saved
@@ -140,10 +140,12 @@ class RatSLAM:
         rebuild = self._rebuild if self._history is not None else None
         return self._yaw_bias.unbiased(self.experience_map, dt, v_trans, v_rot, scene_id, rebuild)
 
-    def _rebuild(self, bias: float) -> None:
+    def _rebuild(self, bias: float, settle_map: bool) -> None:
         """Step fresh pose cells, view cells and experience map through every tick so far with
-        ``bias`` (rad/s) taken off the yaw rate, as if it had been known from the first tick. The
-        new map is then laid onto the frame of the map before the rebuild (the SE(2)
+        ``bias`` (rad/s) taken off the yaw rate, as if it had been known from the first tick. With
+        ``settle_map`` the new map's correction is then solved to its fixed point (:func:`settle`,
+        as a map corrected in place is: the per-tick correction, eqs 12-14, relaxes it only
+        locally). The new map is then laid onto the frame of the map before the rebuild (the SE(2)
         least-squares fit of where each map places the ticks so far), so the map the user holds
         does not turn or shift as a whole at the correction; only its shape changes."""
         assert self._history is not None and self._anchors is not None
@@ -154,8 +156,10 @@ class RatSLAM:
         rows = zip(*(h.view(k).tolist() for k in ("dt", "v_trans", "v_rot", "scene", "rotation")))
         for k, (dt, v, w, scene, rotation) in enumerate(rows):
             self._advance(k, dt, v, w - bias, scene, rotation)
-        frame = fit_se2(self._placed()[:, :2], before[:, :2])
         em = self.experience_map
+        if settle_map:
+            settle(em)
+        frame = fit_se2(self._placed()[:, :2], before[:, :2])
         em.set_poses(place(np.array([frame]), np.zeros(em.size, dtype=np.int64), em.poses))
         self.rebuilds += 1
 

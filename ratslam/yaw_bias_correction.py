@@ -53,24 +53,25 @@ class YawBiasCorrection:
         v_trans: float,
         v_rot: float,
         scene_id: int,
-        rebuild: Callable[[float], None] | None = None,
+        rebuild: Callable[[float, bool], None] | None = None,
     ) -> float:
         """The tick's yaw rate less the bias found so far. A newly adopted bias is first handed to
         ``rebuild`` (the system stepped again from its first tick with the bias taken off) or,
-        without one, corrects the map's transitions (settling the map when the change turns it
-        by more than ``yaw_bias.settle_turn_deg`` over its span)."""
+        without one, corrects the map's transitions; either way the map is settled when the
+        change turns it by more than ``yaw_bias.settle_turn_deg`` over its span (``rebuild``'s
+        second argument)."""
         search = self.search
         if search is None:
             return v_rot
         before = search.bias
         if search.add(dt, v_trans, v_rot, scene_id) is not None:
-            if rebuild is not None:
-                rebuild(search.bias)
-                return v_rot - search.bias
             change = search.bias - before
             elapsed = search.time - dt  # the map's span before this tick
             settle_map = abs(change) * elapsed > math.radians(self.config.yaw_bias.settle_turn_deg)
-            remove_yaw_bias(em, change, settle_map)
+            if rebuild is not None:
+                rebuild(search.bias, settle_map)
+            else:
+                remove_yaw_bias(em, change, settle_map)
         return v_rot - search.bias
 
     def get_state(self) -> dict:

@@ -205,3 +205,20 @@ def test_the_revisit_fit_does_not_depend_on_how_its_grid_is_cut(monkeypatch):
     assert whole is not None and whole.pairs * 29 * 29 < scale.REVISIT_CHUNK  # one pass per k_c
     monkeypatch.setattr(scale, "REVISIT_CHUNK", 7 * whole.pairs)  # 7 rows a pass, the last shorter
     assert revisit_noise(log, min_travel=8.0, closure_sigma=2.0 / np.sqrt(6.0), margin=2.0) == whole
+
+
+@pytest.mark.parametrize("seed, bias_deg_s", [(1, 2.0), (2, 1.0)])
+def test_the_revisits_are_read_without_the_logs_yaw_rate_bias(seed, bias_deg_s):
+    """The odometry noise the revisits make most likely is fitted on the dead reckoning with the
+    yaw-rate bias the systems' search finds taken off (they take it off too): a 15-minute tour with
+    twice the reference noise derives the same noise and closures with a gyro bias as without.
+    Read with the bias left in (measured): speed noise x128 (1.28 m/s) and closures twice as wide,
+    the revisits' inliers 8-9 %."""
+    from tests.tour_stream import waypoint_tour
+
+    clean = derive_configs(waypoint_tour(seed, 0.0, 900.0, noise=0.02))[1]
+    rs, biased, text = derive_configs(waypoint_tour(seed, bias_deg_s, 900.0, noise=0.02))
+    assert "deg/s taken off" in text
+    assert biased.odometry == clean.odometry
+    assert biased.closures == clean.closures
+    assert rs.reentry.odom_speed_noise_m_s == clean.odometry.sigma_v_m_s

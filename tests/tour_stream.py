@@ -23,8 +23,9 @@ ALIASED = BLANK = 0.05  # fractions of the scene cells
 FALSE_POSITIVES = 0.005  # per tick
 
 
-def waypoint_tour(seed: int, bias_deg_s: float, duration_s: float = 1800.0) -> ObservationLog:
-    """The tour's observation log (ground truth included) with ``bias_deg_s`` on the gyro."""
+def waypoint_tour(seed: int, bias_deg_s: float, duration_s: float = 1800.0, noise: float = 0.01) -> ObservationLog:
+    """The tour's observation log (ground truth included) with ``bias_deg_s`` on the gyro and white
+    noise of ``noise`` (m/s, rad/s) on the speed and the yaw rate."""
     rng = np.random.default_rng(seed)
     dt, n = 1.0 / TICK_HZ, int(duration_s * TICK_HZ)
     waypoints = rng.uniform((2.0, 2.0), (AREA[0] - 2.0, AREA[1] - 2.0), size=(WAYPOINTS, 2))
@@ -40,8 +41,8 @@ def waypoint_tour(seed: int, bias_deg_s: float, duration_s: float = 1800.0) -> O
         th += w[k] * dt
         x, y = x + v[k] * dt * np.cos(th), y + v[k] * dt * np.sin(th)
         gt[k] = x, y, th
-    v_odo = 1.01 * v + rng.normal(0.0, 0.01, n)
-    w_odo = w + np.radians(bias_deg_s) + rng.normal(0.0, 0.01, n)
+    v_odo = 1.01 * v + rng.normal(0.0, noise, n)
+    w_odo = w + np.radians(bias_deg_s) + rng.normal(0.0, noise, n)
     # scene numbers: (cell, heading sector) -> a number, some cells showing another's or nothing
     sector = np.floor((gt[:, 2] % (2.0 * np.pi)) / (2.0 * np.pi) * SECTORS).astype(np.int64) % SECTORS
     key = (np.floor(gt[:, 0] / CELL).astype(np.int64) * 1000 + np.floor(gt[:, 1] / CELL).astype(np.int64)) * 10

@@ -22,6 +22,7 @@ import numpy as np
 
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
+from ratslam.yaw_bias_correction import bias_search
 
 REFERENCE_STEP_M = 0.3 / 7.0
 """Metres per tick of the simulated robot (0.3 m/s at 7 Hz)."""
@@ -227,6 +228,29 @@ def trans_gain(cells_per_tick: float) -> float:
     return round(g0 + (g1 - g0) * (cells_per_tick - c0) / (c1 - c0), 3)
 
 
+def log_yaw_bias(log, config: RatSLAMConfig) -> float:
+    """The yaw-rate bias (rad/s) the bias search of ``config.yaw_bias`` holds at the end of
+    ``log`` (:mod:`slamkit.yaw_bias`, as RatSLAM and the pose graph run it; 0 if it adopts none)."""
+    search = bias_search(config)
+    for row in zip(log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist()):
+        search.add(*row)
+    return search.bias
+
+
+@dataclass(frozen=True)
+class _Rates:
+    """A log's columns with the yaw rate replaced (what :func:`revisit_noise` reads)."""
+
+    dt: np.ndarray
+    v_trans: np.ndarray
+    v_rot: np.ndarray
+    scene_id: np.ndarray
+
+
+def _without_yaw_bias(log, bias: float):
+    return log if bias == 0.0 else _Rates(log.dt, log.v_trans, np.asarray(log.v_rot, float) - bias, log.scene_id)
+
+
 def derive_configs(
     log, ratslam: RatSLAMConfig | None = None, gtsam: PoseGraphConfig | None = None
 ) -> tuple[RatSLAMConfig, PoseGraphConfig, str]:
@@ -263,9 +287,15 @@ def derive_configs(
         )
     revisits, revisit_text = None, ""
     if k_v != 1.0 or k_w != 1.0:
-        # The rates' roughness is not the simulator's white noise: test it against the revisits.
+        # The rates' roughness is not the simulator's white noise: test it against the revisits,
+        # dead-reckoned without the yaw-rate bias the systems' search finds in the log (they take
+        # it off the odometry; left in, the revisits read it as noise).
+        rs_new = rs_new.replace(yaw_bias={"search_still_m_s": rs.yaw_bias.search_still_m_s * rough_v})
+        bias = log_yaw_bias(log, rs_new) if rs_new.yaw_bias.search else 0.0
         closures = pg_new.closures
-        revisits = revisit_noise(log, closures.min_travel_m, closures.sigma_xy_m, margin=m.label_length)
+        revisits = revisit_noise(
+            _without_yaw_bias(log, bias), closures.min_travel_m, closures.sigma_xy_m, margin=m.label_length
+        )
         if revisits is not None:
             lo, hi = revisits.support_v
             k_v = k_v if lo <= k_v <= hi else revisits.k_v
@@ -283,7 +313,9 @@ def derive_configs(
                 )
                 rs_new = rs_new.replace(yaw_bias={"revisit_sigma_xy_m": rs_new.yaw_bias.revisit_sigma_xy_m * k_c})
             revisit_text = (
-                f" Revisits ({revisits.pairs} scene-onset pairs, {revisits.inlier_fraction:.0%} inliers): "
+                f" Revisits ({revisits.pairs} scene-onset pairs, {revisits.inlier_fraction:.0%} inliers"
+                + (f"; yaw-rate bias {math.degrees(bias):g} deg/s taken off" if bias else "")
+                + "): "
                 f"most likely noise x{revisits.k_v:g} (x{revisits.support_v[0]:g}-x{revisits.support_v[1]:g}), "
                 f"x{revisits.k_w:g} (x{revisits.support_w[0]:g}-x{revisits.support_w[1]:g}), onset scatter "
                 f"x{revisits.k_closure:g} of closures.sigma_xy_m; "
@@ -294,7 +326,6 @@ def derive_configs(
             odometry={"sigma_v_m_s": odo.sigma_v_m_s * k_v, "sigma_w_rad_s": odo.sigma_w_rad_s * k_w}
         )
         # A standstill reads the speed's tick-to-tick noise: its bound scales with the roughness.
-        rs_new = rs_new.replace(yaw_bias={"search_still_m_s": rs.yaw_bias.search_still_m_s * rough_v})
         pg_new = pg_new.replace(yaw_bias={"search_still_m_s": pg.yaw_bias.search_still_m_s * rough_v})
         # RatSLAM's re-entry fusion, with the pose graph's noise model (module doc)
         rs_new = rs_new.replace(
