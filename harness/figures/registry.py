@@ -693,8 +693,8 @@ _register(
         "plaza2",
         "CMU Plaza 2: a vehicle's wheel odometry, 3.6 m/s at 10 Hz, 7 min",
         _PLAZA_NOTES + " Plaza 2's dead reckoning drifts in heading (15.9 m ATE): both systems' loop closures "
-        "hold it on the place labels. Measured over label seeds 0/1/2: experience map 0.88/1.18/1.06 m, "
-        "pose graph 0.51/0.50/0.49 m; the claims' margins come from these.",
+        "hold it on the place labels. Measured over label seeds 0/1/2: experience map 0.98/0.85/0.79 m, "
+        "pose graph 0.49/0.47/0.48 m; the claims' margins come from these.",
         map_factor=5.0,
         gtsam_factor=10.0,
     )
