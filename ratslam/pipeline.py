@@ -59,8 +59,11 @@ class RatSLAM:
     ``experience_map.snap_settle_ticks``; the map's re-entry policy may hold a new loop closure
     until the next scene agrees: ``experience_map.loop_closure_sequence``), and runs its
     correction (eqs 12-14). Beforehand, unless ``yaw_bias.search`` is off, the tick feeds the
-    yaw-rate bias search (:mod:`ratslam.yaw_bias_correction`); once it adopts a bias the
-    transitions are corrected and every consumer gets the corrected yaw rate.
+    yaw-rate bias search (:mod:`ratslam.yaw_bias_correction`); once it adopts a bias the system
+    is rebuilt from the first tick with the bias taken off (``yaw_bias.rebuild``: each tick's
+    inputs are kept for it; the experiences are renumbered, :attr:`final_anchors`) or, with
+    ``rebuild`` off, the map's transitions are corrected; every later tick feeds the corrected
+    yaw rate.
 
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot``, ``scene_id`` (and,
     from a camera, the view's rotation relative to its template).
