@@ -27,6 +27,7 @@ from .yaw_bias_correction import YawBiasCorrection, settle
 # before it, loads with the search starting afresh)
 # format 6: the ticks taken and each tick's anchor (kept for a rebuild after an adopted yaw-rate bias)
 _FORMAT = "ratslam-state-6"
+_WITHOUT_TICKS = "ratslam-state-5"  # loads with yaw_bias.rebuild off: its ticks were not kept
 
 
 def _input_columns() -> Growable:
@@ -310,16 +311,19 @@ class RatSLAM:
 
     @classmethod
     def load(cls, path) -> RatSLAM:
-        """Restore a system written by :meth:`save`; stepping it continues bit-identically."""
+        """Restore a system written by :meth:`save`; stepping it continues bit-identically. A
+        state saved before the ticks were kept (format 5) loads with ``yaw_bias.rebuild`` off: a
+        bias adopted later corrects its map in place."""
         with np.load(Path(path)) as data:
             s = {k: data[k] for k in data.files}
         meta = json.loads(bytes(s["meta_json"]).decode())
-        if meta.get("format") != _FORMAT:
-            raise ValueError(
-                f"{path}: not a RatSLAM state file of this version "
-                f"(format {meta.get('format')!r}, expected {_FORMAT!r})"
-            )
-        obj = cls(from_dict(RatSLAMConfig, meta["config"]))
+        fmt = meta.get("format")
+        if fmt not in (_FORMAT, _WITHOUT_TICKS):
+            raise ValueError(f"{path}: not a RatSLAM state file of this version (format {fmt!r}, expected {_FORMAT!r})")
+        config = from_dict(RatSLAMConfig, meta["config"])
+        if fmt == _WITHOUT_TICKS:
+            config = config.replace(yaw_bias={"rebuild": False})
+        obj = cls(config)
         obj.pose_cells.set_state(s)
         obj.local_view.set_state(s)
         obj.experience_map.set_state(s)
@@ -327,7 +331,7 @@ class RatSLAM:
         obj._snapped = bool(snapped)
         obj._view_gate.set_state(s["rs_tick"][2:])
         obj._yaw_bias.set_state(s)
-        obj.rebuilds = int(s["rs_rebuilds"][0])
+        obj.rebuilds = int(s["rs_rebuilds"][0]) if "rs_rebuilds" in s else 0
         for prefix, columns in (("rs_history_", obj._history), ("rs_anchors_", obj._anchors)):
             if columns is not None:
                 columns.load({k: s[prefix + k] for k in columns.cols})

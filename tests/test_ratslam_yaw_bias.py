@@ -244,3 +244,18 @@ def test_save_and_load_after_a_rebuild_continues_bit_for_bit(office_biased, tmp_
     for x, y in zip(a.final_anchors, b.final_anchors):
         np.testing.assert_array_equal(x, y)
     assert a.pose == b.pose
+
+
+def test_a_state_saved_without_its_ticks_loads_with_the_rebuild_off():
+    """A state of format 5 (saved before each tick's inputs were kept; the committed navigation
+    report's map) loads, with ``yaw_bias.rebuild`` off (a bias adopted later corrects the map in
+    place), and steps on."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "reports" / "nav_full_floor" / "ratslam_map.npz"
+    slam = RatSLAM.load(path)
+    assert slam.config.yaw_bias.search and not slam.config.yaw_bias.rebuild
+    assert slam.final_anchors is None and slam.tick == 25200
+    n = slam.experience_map.size
+    slam.step(0.1, 0.3, 0.0, -1)
+    assert slam.tick == 25201 and slam.experience_map.size == n
