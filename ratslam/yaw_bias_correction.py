@@ -2,8 +2,11 @@
 
 The search (:mod:`slamkit.yaw_bias`, shared with the pose graph) finds a constant yaw-rate
 (gyro) bias from revisited scene numbers. :class:`YawBiasCorrection` runs it on RatSLAM's
-stream and, once it adopts a bias, takes the bias off every later tick's yaw rate and out of the
-experience map built so far (:func:`remove_yaw_bias`), acting on the map's arrays: without it the
+stream and, once it adopts a bias, takes the bias off every later tick's yaw rate and out of
+what was built so far: by the pipeline's rebuild (``yaw_bias.rebuild``, the default: the system
+stepped again from its first tick, :class:`ratslam.pipeline.RatSLAM`) or, without one, out of the
+experience map's transitions (:func:`remove_yaw_bias`, acting on the map's arrays; the pose cells
+and view cells keep the places where the biased odometry laid them). Without either the
 transitions each carry the bias's turn and the relaxation (eqs 12-14) cannot take it out.
 """
 
