@@ -255,6 +255,16 @@ def _fmt(v) -> str:
     return "—" if v is None else f"{v:g}"
 
 
+def _stream_sentence(rows: list[dict]) -> str:
+    """How one run makes its stream: simulated, or a real log's odometry with labels synthesised."""
+    if row_axes(rows) == LOG_AXES:
+        return (
+            "One run labels the real log once under its condition (the log's odometry, the labels "
+            "synthesised from its ground truth) and runs every system on that stream."
+        )
+    return "One run simulates its condition once and runs every system on that stream."
+
+
 def render(rows: list[dict], title: str, panels: list[str]) -> str:
     runs = {r["run_id"]: r for r in rows}
     failed = [r for r in runs.values() if r["error"]]
@@ -265,10 +275,8 @@ def render(rows: list[dict], title: str, panels: list[str]) -> str:
         f"# Sweep: {title}",
         "",
         f"{len(runs)} runs ({len(failed)} failed) on {', '.join(worlds)}, "
-        f"{len(seeds)} seeds, systems: {', '.join(systems)}. One run simulates its condition once and "
-        "runs every system on that stream (a real log: its odometry, the labels synthesised under the "
-        "condition). Map ATE: the experience map (RatSLAM) or the pose graph's "
-        "keyframes, SE(2)-aligned to ground truth.",
+        f"{len(seeds)} seeds, systems: {', '.join(systems)}. {_stream_sentence(rows)} Map ATE: the "
+        "experience map (RatSLAM) or the pose graph's keyframes, SE(2)-aligned to ground truth.",
         "",
     ]
     bd = breakdown(rows)
