@@ -131,6 +131,8 @@ class PoseGraphSLAM:
         self._deferred_factors: list = []
         self._deferred_values = gtsam.Values()
         self._isam_keyframes = 0
+        # iSAM2's estimate of keyframes read since its last update (it changes only with one)
+        self._estimates: dict[int, tuple[float, float, float]] = {}
 
     # ------------------------------------------------------------------ step
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float = 0.0) -> None:
@@ -301,8 +303,7 @@ class PoseGraphSLAM:
             last.insert2(BIAS_KEY, 1)
         self._update_isam(tagged, new_values, last=last)
         if closure_factors:
-            for _ in range(cfg.optimisation.isam2_extra_updates):
-                self._online_isam.update()
+            self._extra_updates()
         if cfg.backend.kind == "gnc":
             self._keyframes_since_gnc += 1
             if self._keyframes_since_gnc >= cfg.backend.gnc_interval_keyframes and self._has_pending():
@@ -386,9 +387,16 @@ class PoseGraphSLAM:
             if "Indeterminate" not in str(e):
                 raise
             indices = self._recover(tagged, values)
+        self._estimates.clear()
         for (_, c), idx in zip(tagged, indices):
             if c is not None:
                 self._lc_isam_index[c] = idx
+
+    def _extra_updates(self) -> None:
+        """iSAM2's further relinearisation steps after closures (``isam2_extra_updates``)."""
+        for _ in range(self._config.optimisation.isam2_extra_updates):
+            self._online_isam.update()
+        self._estimates.clear()
 
     def _recover(self, tagged: list, values: gtsam.Values) -> list[int]:
         """Rebuild iSAM2 (QR) with what it held plus ``tagged``; returns the indices of ``tagged``."""
@@ -447,11 +455,15 @@ class PoseGraphSLAM:
 
     def _estimate_pose2(self, i: int) -> tuple[float, float, float]:
         """Current estimate of keyframe ``i`` (its odometry guess when offline)."""
-        if self._isam is not None and i < self._isam_keyframes:
-            p = self._online_isam.calculateEstimatePose2(X(i))
-        else:  # offline, or a keyframe waiting for iSAM2 (its guess is what iSAM2 would give)
+        if self._isam is None or i >= self._isam_keyframes:
+            # offline, or a keyframe waiting for iSAM2 (its guess is what iSAM2 would give)
             p = self._values.atPose2(X(i))
-        return p.x(), p.y(), p.theta()
+            return p.x(), p.y(), p.theta()
+        known = self._estimates.get(i)
+        if known is None:
+            p = self._online_isam.calculateEstimatePose2(X(i))
+            known = self._estimates[i] = (p.x(), p.y(), p.theta())
+        return known
 
     def _refresh_latest(self) -> None:
         j = len(self._kf_ticks) - 1
@@ -502,8 +514,7 @@ class PoseGraphSLAM:
                 added.append(c)
         if added or remove:
             self._update_isam([(self._isam_closure_factor(c), c) for c in added], gtsam.Values(), remove)
-            for _ in range(self._config.optimisation.isam2_extra_updates):
-                self._online_isam.update()
+            self._extra_updates()
 
     # ------------------------------------------------------------------ finalize
     def finalize(self) -> None:

@@ -319,22 +319,24 @@ def plan_jobs(
     """The jobs of a figure run: per stream, one job recording its members' RatSLAMs and pose
     graphs and, if ``split`` (parallel workers, scene numbers), one job per RatSLAM run beside
     them, which takes the stream the recording job simulated (left in the folder ``handoffs``);
-    otherwise one job steps all of a stream's systems. Recording jobs come first (the longest), so
-    that the side jobs fill in around them."""
+    otherwise one job steps all of a stream's systems. A run without a recording splits the pose
+    graphs off into jobs of their own too (nothing watches the two systems tick by tick). The
+    stream's own jobs come first (the others wait for their streams), then the side jobs role by
+    role, the pose graphs (the longest) first, so that the shorter jobs fill in around them."""
     streams: dict[tuple, list[Member]] = {}
     for variant, run_dir in members:
         streams.setdefault(stream_key(variant), []).append((variant, run_dir))
     split = split and options.camera is None
+    own: tuple[str, ...] | None = (RATSLAM, GTSAM) if split else None
     side = alternative_names(options.ratslam) if split else ()
+    if split and options.recorder_factory is None:
+        own, side = (RATSLAM,), (GTSAM, *side)
     handoff = [None if not side or handoffs is None else handoffs / f"stream{i}.pickle" for i in range(len(streams))]
-    recording = [
-        StreamJob(fig.name, tuple(m), options, (RATSLAM, GTSAM) if split else None, True, handoff[i])
-        for i, m in enumerate(streams.values())
-    ]
+    recording = [StreamJob(fig.name, tuple(m), options, own, True, handoff[i]) for i, m in enumerate(streams.values())]
     return recording + [
         StreamJob(fig.name, tuple(m), options, (name,), False, handoff[i])
-        for i, m in enumerate(streams.values())
         for name in side
+        for i, m in enumerate(streams.values())
     ]
 
 
