@@ -152,6 +152,13 @@ def test_workers_die_with_a_killed_parent_and_the_next_run_cleans_up(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+def _ctrl_c_as_in_a_terminal() -> None:
+    """SIGINT's default disposition for the command, as a terminal starts it: a suite started in
+    the background by a shell without job control inherits SIGINT ignored, and an ignored SIGINT
+    stays ignored in the command (Python then installs no KeyboardInterrupt handler)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="signals a process group")
 @pytest.mark.parametrize("when", [1.5, 3.0, 5.0, "running"])
 def test_an_interrupted_sweep_is_one_line(tmp_path, when):
@@ -166,6 +173,7 @@ def test_an_interrupted_sweep_is_one_line(tmp_path, when):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=_ctrl_c_as_in_a_terminal,
     )
     if when == "running":
         deadline = time.time() + 60
