@@ -192,20 +192,23 @@ class ExperienceMap(MapLayers):
 
     # ------------------------------------------------------------------ eqs 2-9
     def energy(self, peak_cell: np.ndarray, view: int, ids: np.ndarray | None = None) -> np.ndarray:
-        """Energy E_i (eqs 2-9) of experiences ``ids`` (default: all) for a peak and a view."""
+        """Energy E_i (eqs 2-9) of experiences ``ids`` (default: all) for a peak and a view
+        (compiled: :func:`ratslam.map_kernels.energy`)."""
         cfg = self.config.experience_map
         if ids is None:
             ids = np.arange(self._exp.n)
-        cells = self._exp.cols["cell"][ids]
-        d = np.abs(cells - peak_cell)
-        d = np.minimum(d, self._grid - d)  # wrap-aware
-        r = np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2)  # eq 3
-        e_xy = np.maximum(1.0 - r / cfg.r_inf_cells, 0.0)  # eq 2
-        e_th = np.maximum(1.0 - d[:, 2] / cfg.theta_inf_cells, 0.0)  # eqs 4-5
-        e_v = (self._exp.cols["view"][ids] == view).astype(float)  # eqs 6-8
-        if cfg.energy == "sum":
-            return e_v * (e_xy + e_th)  # eq 9
-        return e_v * e_xy * e_th  # the stricter product form (energy = "product"; not in the paper)
+        cols = self._exp.cols
+        return map_kernels.energy(
+            cols["cell"],
+            cols["view"],
+            np.asarray(ids, dtype=np.int64),
+            np.asarray(peak_cell, dtype=float),
+            self._grid,
+            int(view),
+            float(cfg.r_inf_cells),
+            float(cfg.theta_inf_cells),
+            cfg.energy != "sum",
+        )
 
     # ------------------------------------------------------------------ eqs 10-11
     def update(self, tick: int, peak_cell: np.ndarray, view: int) -> str:

@@ -56,3 +56,26 @@ def correct(x, y, th, n, frm, to, d, theta, phi, m, inv_degree, alpha_d, alpha_t
         x[i] += alpha_d * dx[i]
         y[i] += alpha_d * dy[i]
         th[i] = _wrap(th[i] + alpha_theta * dt[i])
+
+
+@njit(cache=True)
+def energy(cells, views, ids, peak, grid, view, r_inf, theta_inf, product):
+    """Energy E_i (eqs 2-9) of experiences ``ids`` for a pose-cell peak (3,) and a view:
+    ``cells`` (N, 3) and ``views`` (N,) are the map's columns, ``grid`` the pose-cell grid's
+    size per axis (cells, distances taken the short way round). ``product``: the stricter
+    product form instead of eq 9's sum."""
+    out = np.empty(ids.shape[0])
+    for k in range(ids.shape[0]):
+        i = ids[k]
+        d0 = abs(cells[i, 0] - peak[0])
+        d0 = min(d0, grid[0] - d0)
+        d1 = abs(cells[i, 1] - peak[1])
+        d1 = min(d1, grid[1] - d1)
+        d2 = abs(cells[i, 2] - peak[2])
+        d2 = min(d2, grid[2] - d2)
+        r = np.sqrt(d0 * d0 + d1 * d1)  # eq 3
+        e_xy = max(1.0 - r / r_inf, 0.0)  # eq 2
+        e_th = max(1.0 - d2 / theta_inf, 0.0)  # eqs 4-5
+        e_v = 1.0 if views[i] == view else 0.0  # eqs 6-8
+        out[k] = e_v * e_xy * e_th if product else e_v * (e_xy + e_th)  # eq 9 (or the product)
+    return out

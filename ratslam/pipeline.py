@@ -18,7 +18,7 @@ from .config import RatSLAMConfig
 from .experience_map import ExperienceMap
 from .local_view import LocalView
 from .pose_cells import PoseCells
-from .snaps import is_snap
+from .snaps import snapped
 from .view_gate import ViewGate
 from .yaw_bias_correction import YawBiasCorrection, settle
 
@@ -73,7 +73,7 @@ class RatSLAM:
     def __init__(self, config: RatSLAMConfig | None = None):
         self._config = config if config is not None else RatSLAMConfig()
         self._bias = math.radians(self._config.pose_cells.path_integration_bias_deg_s)
-        self._grid = np.array(self._config.shape, dtype=float)
+        self._grid = tuple(float(v) for v in self._config.shape)
         self._yaw_bias = YawBiasCorrection(self._config)
         yb = self._config.yaw_bias
         # the ticks taken and where each left the robot, kept while a rebuild may need them
@@ -116,7 +116,7 @@ class RatSLAM:
         pc.step(v_trans * dt, (v_rot + self._bias) * dt)
         self.local_view.learn(k, pc)
         new_peak = pc.peak
-        self._snapped = bool(is_snap(old_peak, new_peak, self._grid, self._config.pose_cells.snap_threshold_cells))
+        self._snapped = snapped(old_peak, new_peak, self._grid, self._config.pose_cells.snap_threshold_cells)
         em = self.experience_map
         em.integrate(dt, v_trans, v_rot)
         em.update(k, new_peak, self._view_gate.confirmed(k, scene_id, self._snapped))

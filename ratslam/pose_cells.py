@@ -89,6 +89,22 @@ class PoseCells:
         self._off_within = np.array([-pc.inhibit_radius_cells], dtype=np.int64)
         # boxes closer than this (empty cells, on every axis) interact within one iteration
         self._reach = 2 * pc.excite_radius_cells + pc.inhibit_radius_cells
+        te, ti = self._taps_exc, self._taps_inh
+        # the attractor's operands after (activity, start), as the kernels take them
+        self._network = (
+            self._n,
+            te[0],
+            te[1],
+            te[2],
+            ti[0],
+            ti[1],
+            ti[2],
+            self._off_spread,
+            self._off_within,
+            pc.excite_radius_cells,
+            pc.inhibit_weight,
+            pc.global_inhibition,
+        )
         if start_cell is None:
             start_cell = (pc.nx // 2, pc.ny // 2, 0)
         x, y, t = start_cell
@@ -194,7 +210,9 @@ class PoseCells:
     def _inject_global(self, g: np.ndarray, energy) -> None:
         """Inject at global cells ``g`` (3, k) as (θ', x', y')."""
         n = self._n
-        energy = np.ascontiguousarray(np.broadcast_to(np.asarray(energy, dtype=float), (g.shape[1],)))
+        energy = np.asarray(energy, dtype=float)
+        if energy.shape != (g.shape[1],):
+            energy = np.full(g.shape[1], energy)
         todo = np.ones(g.shape[1], dtype=bool)
         for start, act in self._boxes:
             K.add_inside(act, start, n, g, energy, todo)
@@ -256,21 +274,7 @@ class PoseCells:
         cfg = self.config.pose_cells
         if len(self._boxes) > 1:
             self._merge_interacting()
-        te, ti = self._taps_exc, self._taps_inh
-        network = (  # the attractor's operands after (activity, start), as the kernels take them
-            self._n,
-            te[0],
-            te[1],
-            te[2],
-            ti[0],
-            ti[1],
-            ti[2],
-            self._off_spread,
-            self._off_within,
-            cfg.excite_radius_cells,
-            cfg.inhibit_weight,
-            cfg.global_inhibition,
-        )
+        network = self._network
         if len(self._boxes) == 1:  # the usual case: the steps below in one compiled call
             start, act = self._boxes[0]
             alive, start, act, peak = pose_cell_split.step_one_box(

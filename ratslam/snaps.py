@@ -6,6 +6,8 @@ Defined once here; :class:`ratslam.RatSLAM` reports ``snapped`` with it and
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -21,3 +23,14 @@ def peak_jump(old_peak, new_peak, grid_shape) -> np.ndarray:
 def is_snap(old_peak, new_peak, grid_shape, snap_cells: float) -> np.ndarray:
     """Whether the peak moved more than ``snap_cells`` cells (:func:`peak_jump`), per row."""
     return peak_jump(old_peak, new_peak, grid_shape) > snap_cells
+
+
+def snapped(old_peak, new_peak, grid_shape, snap_cells: float) -> bool:
+    """:func:`is_snap` for one pair of peaks, in scalar arithmetic (the same operations in the
+    same order: the step's check, one pair per tick)."""
+    s = 0.0
+    for o, p, n in zip(old_peak, new_peak, grid_shape):
+        d = abs(float(p) - float(o)) % n
+        d = min(d, n - d)
+        s += d * d
+    return math.sqrt(s) > snap_cells
