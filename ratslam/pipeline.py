@@ -336,3 +336,22 @@ class RatSLAM:
             if columns is not None:
                 columns.load({k: s[prefix + k] for k in columns.cols})
         return obj
+
+
+def compile_map_kernels(config: RatSLAMConfig) -> None:
+    """Compile (or load from numba's disk cache) the view cells' and the experience map's kernels
+    without iterating the pose cells' attractor, so that a process can compile them beside one
+    compiling the attractor (:func:`ratslam.pose_cells.compile_kernels`): a scene seen, another,
+    then the first again (learning, injection, experiences created, linked, re-entered and
+    corrected)."""
+    cells = PoseCells(config)
+    view = LocalView(config)
+    em = ExperienceMap(config)
+    min_age = config.local_view.min_age_ticks
+    for tick, scene in enumerate((0, 1, 0)):
+        k = tick * (min_age + 1)  # old enough for the first scene's associations to inject
+        view.inject(scene, k, cells)
+        view.learn(k, cells)
+        em.integrate(1.0, 0.5, 0.0)
+        em.update(k, cells.peak, scene)
+        em.correct()

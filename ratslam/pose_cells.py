@@ -351,14 +351,24 @@ KERNEL_PARTS = ("iteration", "boxes")
 
 def compile_kernels(config: RatSLAMConfig, part: str) -> None:
     """Compile one part of the kernels a :class:`PoseCells` step uses (or load it from numba's disk
-    cache), so that two processes can compile the two parts side by side: ``"iteration"``, one
-    step of a network held in one box (the attractor iteration, group by group); ``"boxes"``,
-    the rest (the groups of a box, boxes from injected cells, merging, path integration, peak)."""
+    cache), so that two processes can compile the two parts side by side. ``"iteration"``: the
+    inhibition of one box, then one step of a network held in one box (the attractor iteration,
+    group by group, with path integration and the peak). ``"boxes"``: first the kernels that step
+    calls besides the inhibition (the excitation, the groups of a box, path integration, the
+    peak), which the other part then loads from the cache while it is still compiling the
+    inhibition, then the rest (boxes from injected cells, merging, several boxes' peak, the
+    active cells)."""
     cells = PoseCells(config)
+    start, act = cells._boxes[0]
+    n, te0, te1, te2, ti0, ti1, ti2, off_spread, off_within, _, weight, global_inh = cells._network
     if part == "iteration":
+        K.inhibit_clip_crop(act, ti0, ti1, ti2, off_within, weight, global_inh, start, n)
         cells.step(0.0, 0.0)
     elif part == "boxes":
-        pose_cell_split.groups(cells._boxes[0][1], cells._n, cells._reach)
+        K.excite(act, te0, te1, te2, off_spread, n)
+        pose_cell_split.groups(act, n, cells._reach)
+        cells.path_integrate(0.1, 0.05)
+        cells._update_peak()
         for x in (10, 4):  # a new box, then cells near it (added inside, merged)
             cells.inject(np.array([[x, 0, 0]]), 0.5)
         cells._merge_interacting()

@@ -149,11 +149,15 @@ def map_in_processes(fn: Callable[[Any], Any], jobs: Iterable[Any], workers: int
 
 
 def _compile_kernels(parent: int, config, part: str) -> None:
-    """A helper of :func:`warm_kernels`: one part of the pose cells' kernels, set up as a worker."""
+    """A helper of :func:`warm_kernels`: one part of the pose cells' kernels, set up as a worker
+    (with the "boxes" part, the view cells' and the experience map's kernels too)."""
+    from ratslam.pipeline import compile_map_kernels
     from ratslam.pose_cells import compile_kernels
 
     worker_init(parent)
     compile_kernels(config, part)
+    if part == "boxes":
+        compile_map_kernels(config)
 
 
 def warm_kernels() -> None:
@@ -161,8 +165,10 @@ def warm_kernels() -> None:
     forked workers inherit them and spawned ones load the cache, instead of each compiling them
     again (a first compile takes tens of seconds per process on a loaded machine). The pose cells'
     kernels compile in two parts side by side, one in a forked helper that leaves them in the cache
-    (:func:`ratslam.pose_cells.compile_kernels`); then a 4 m square driven twice with a scene per
-    side: path integration, view injection, experience creation, loop closure and map correction."""
+    (:func:`ratslam.pose_cells.compile_kernels`; the helper then compiles the view cells' and the
+    experience map's, :func:`ratslam.pipeline.compile_map_kernels`); then a 4 m square driven
+    twice with a scene per side: path integration, view injection, experience creation, loop
+    closure and map correction."""
     from ratslam import PoseCellConfig, RatSLAM, RatSLAMConfig
     from ratslam.pose_cells import PoseCells, compile_kernels
 
