@@ -593,3 +593,77 @@ def boxes_of_clusters(g, energy, todo, n, radius):
         values[pos : pos + parts[j].shape[0]] = parts[j]
         pos += parts[j].shape[0]
     return starts, shapes, values
+
+
+@njit(cache=True)
+def ring_gap(s1, l1, s2, l2, n):
+    """Number of empty cells between two arcs (start, length) of a ring of ``n`` (0 if they touch
+    or overlap)."""
+    if (s2 - s1) % n < l1 or (s1 - s2) % n < l2:
+        return 0
+    return min((s2 - (s1 + l1)) % n, (s1 - (s2 + l2)) % n)
+
+
+@njit(cache=True)
+def arc_union(s1, l1, s2, l2, n):
+    """Smallest arc (start, length) of a ring of ``n`` covering two arcs."""
+    if l1 >= n:
+        return s1, n
+    if l2 >= n:
+        return s2, n
+    a = max(l1, (s2 - s1) % n + l2)  # starting at s1
+    b = max(l2, (s1 - s2) % n + l1)  # starting at s2
+    if min(a, b) >= n:
+        return 0, n
+    if a <= b:
+        return s1, a
+    return s2, b
+
+
+@njit(cache=True)
+def interacting_groups(starts, shapes, n, reach):
+    """Groups of boxes (``starts``, ``shapes`` (k, 3)) that interact within one iteration: boxes
+    no more than ``reach`` empty cells apart on every axis are grouped, and a group's covering
+    box may reach further boxes, so grouping repeats until no two groups interact (each group
+    takes in the later ones it reaches, in order). Returns the groups in order (their slots), each
+    slot's covering box (start, length per axis) and its member boxes in the order they joined
+    (``members[g, :count[g]]``)."""
+    k = starts.shape[0]
+    arc_s = starts.copy()
+    arc_l = shapes.copy()
+    members = np.empty((k, k), dtype=np.int64)
+    count = np.ones(k, dtype=np.int64)
+    order = np.arange(k)
+    for g in range(k):
+        members[g, 0] = g
+    m = k
+    changed = True
+    while changed and m > 1:
+        changed = False
+        i = 0
+        while i < m:
+            gi = order[i]
+            j = i + 1
+            while j < m:
+                gj = order[j]
+                near = True
+                for a in range(3):
+                    if ring_gap(arc_s[gi, a], arc_l[gi, a], arc_s[gj, a], arc_l[gj, a], n[a]) > reach:
+                        near = False
+                        break
+                if near:
+                    for a in range(3):
+                        arc_s[gi, a], arc_l[gi, a] = arc_union(
+                            arc_s[gi, a], arc_l[gi, a], arc_s[gj, a], arc_l[gj, a], n[a]
+                        )
+                    for c in range(count[gj]):
+                        members[gi, count[gi]] = members[gj, c]
+                        count[gi] += 1
+                    for q in range(j, m - 1):
+                        order[q] = order[q + 1]
+                    m -= 1
+                    changed = True
+                else:
+                    j += 1
+            i += 1
+    return order[:m].copy(), arc_s, arc_l, members, count

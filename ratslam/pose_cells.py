@@ -48,26 +48,6 @@ def axis_kernels(config: RatSLAMConfig) -> tuple[tuple, tuple]:
     )
 
 
-def _ring_gap(s1: int, l1: int, s2: int, l2: int, n: int) -> int:
-    """Number of empty cells between two arcs of a ring (0 if they touch or overlap)."""
-    if (s2 - s1) % n < l1 or (s1 - s2) % n < l2:
-        return 0
-    return int(min((s2 - (s1 + l1)) % n, (s1 - (s2 + l2)) % n))
-
-
-def _arc_union(s1: int, l1: int, s2: int, l2: int, n: int) -> tuple[int, int]:
-    """Smallest arc (start, length) of a ring of ``n`` covering two arcs."""
-    if l1 >= n:
-        return s1, n
-    if l2 >= n:
-        return s2, n
-    a = max(l1, (s2 - s1) % n + l2)  # starting at s1
-    b = max(l2, (s1 - s2) % n + l1)  # starting at s2
-    if min(a, b) >= n:
-        return 0, n
-    return (s1, a) if a <= b else (s2, b)
-
-
 class PoseCells:
     """Competitive attractor network of pose cells (see the module docstring).
 
@@ -229,37 +209,27 @@ class PoseCells:
         """Merge boxes that are close enough to interact during one iteration.
 
         Boxes are grouped first (a group's covering box may reach further boxes, so grouping
-        repeats until no two groups interact), then each group is copied into one new box.
+        repeats until no two groups interact: :func:`ratslam.pose_cell_kernels.interacting_groups`),
+        then each group is copied into one new box.
         """
-        n = [int(v) for v in self._n]
-        # per group: covering arcs (start, length) per axis, and member boxes
-        groups = [([(int(st[a]), act.shape[a]) for a in range(3)], [i]) for i, (st, act) in enumerate(self._boxes)]
-        changed = True
-        while changed and len(groups) > 1:
-            changed = False
-            i = 0
-            while i < len(groups):
-                j = i + 1
-                while j < len(groups):
-                    (ai, mi), (aj, mj) = groups[i], groups[j]
-                    if all(_ring_gap(ai[a][0], ai[a][1], aj[a][0], aj[a][1], n[a]) <= self._reach for a in range(3)):
-                        groups[i] = ([_arc_union(*ai[a], *aj[a], n[a]) for a in range(3)], mi + mj)
-                        del groups[j]
-                        changed = True
-                    else:
-                        j += 1
-                i += 1
-        if len(groups) == len(self._boxes):
+        old = self._boxes
+        order, arc_s, arc_l, members, count = K.interacting_groups(
+            np.array([b[0] for b in old], dtype=np.int64),
+            np.array([b[1].shape for b in old], dtype=np.int64),
+            self._n,
+            self._reach,
+        )
+        if len(order) == len(old):
             return
         boxes = []
-        for arcs, members in groups:
-            if len(members) == 1:
-                boxes.append(self._boxes[members[0]])
+        for g in order:
+            if count[g] == 1:
+                boxes.append(old[members[g, 0]])
                 continue
-            start = np.array([arc[0] for arc in arcs], dtype=np.int64)
-            act = np.zeros(tuple(arc[1] for arc in arcs))
-            for m in members:
-                K.rebox_add(act, start, self._boxes[m][1], self._boxes[m][0], self._n)
+            start = arc_s[g].copy()
+            act = np.zeros(tuple(int(v) for v in arc_l[g]))
+            for m in members[g, : count[g]]:
+                K.rebox_add(act, start, old[m][1], old[m][0], self._n)
             boxes.append([start, act])
         self._boxes = boxes
 

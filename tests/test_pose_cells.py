@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from ratslam import PoseCellConfig, RatSLAMConfig
-from ratslam.pose_cell_kernels import cover_arc
-from ratslam.pose_cells import PoseCells, _arc_union, gaussian_kernel
+from ratslam.pose_cell_kernels import arc_union, cover_arc
+from ratslam.pose_cells import PoseCells, gaussian_kernel
 from ratslam.pose_cells_reference import FullGridPoseCells
 from tests.helpers import CFG, DT, GRID, settled, wrapped_diff
 
@@ -39,7 +39,7 @@ def test_arc_union_is_the_smallest_covering_arc():
         for l1 in range(1, n + 1):
             for s2 in range(n):
                 for l2 in range(1, n + 1):
-                    start, length = _arc_union(s1, l1, s2, l2, n)
+                    start, length = arc_union(s1, l1, s2, l2, n)
                     cover = {(start + i) % n for i in range(length)}
                     want = {(s1 + i) % n for i in range(l1)} | {(s2 + i) % n for i in range(l2)}
                     assert want <= cover
@@ -239,3 +239,21 @@ def test_state_round_trip():
     other.step(0.05, 0.1)
     np.testing.assert_array_equal(other.activity, pc.activity)
     np.testing.assert_array_equal(other.peak, pc.peak)
+
+
+def test_boxes_join_through_a_box_between_them():
+    """Two boxes too far apart to interact are merged when a third between them reaches both: the
+    first takes in the third (the first pass), then the second (the next pass), in that order."""
+    from ratslam.pose_cell_kernels import interacting_groups
+
+    n = np.array([36, 60, 60], dtype=np.int64)
+    starts = np.array([[0, 0, 0], [0, 24, 0], [0, 12, 0]], dtype=np.int64)
+    shapes = np.array([[5, 4, 4], [5, 4, 4], [5, 4, 4]], dtype=np.int64)
+    order, arc_s, arc_l, members, count = interacting_groups(starts, shapes, n, 8)
+    assert order.tolist() == [0]
+    assert members[0, : count[0]].tolist() == [0, 2, 1]
+    assert arc_s[0].tolist() == [0, 0, 0] and arc_l[0].tolist() == [5, 28, 4]
+    # one cell further apart, the third no longer reaches the second: two groups
+    starts[1, 1] = 25
+    order, _, arc_l, members, count = interacting_groups(starts, shapes, n, 8)
+    assert order.tolist() == [0, 1] and members[0, : count[0]].tolist() == [0, 2] and arc_l[0, 1] == 16
