@@ -104,6 +104,9 @@ def read_text(path, error: type[Exception] = OSError) -> str:
 
 
 # --------------------------------------------------------------------------------------- TUM
+_TUM_ROW = "%.6f %.6f %.6f %.0f %.0f %.0f %.9f %.9f\n"
+
+
 def write_tum(path, t, x, y, theta) -> Path:
     """Write a TUM trajectory (``t x y z qx qy qz qw`` per line, z = 0, rotation θ about z).
 
@@ -119,7 +122,7 @@ def write_tum(path, t, x, y, theta) -> Path:
     data = np.column_stack([t, x, y, zero, zero, zero, np.sin(theta / 2), np.cos(theta / 2)])
     with atomic_open(path, "w") as fh:
         fh.write("# timestamp x y z qx qy qz qw\n")
-        np.savetxt(fh, data, fmt=["%.6f", "%.6f", "%.6f", "%.0f", "%.0f", "%.0f", "%.9f", "%.9f"])
+        fh.write((_TUM_ROW * len(data)) % tuple(data.ravel().tolist()))  # np.savetxt's lines, at once
     return Path(path)
 
 
