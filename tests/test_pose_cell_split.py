@@ -14,25 +14,7 @@ from ratslam.pose_cells import PoseCells
 
 
 def _args(config: RatSLAMConfig, act: np.ndarray, start: np.ndarray):
-    pc = PoseCells(config)
-    p = config.pose_cells
-    te, ti = pc._taps_exc, pc._taps_inh
-    return (
-        act,
-        start,
-        pc._n,
-        te[0],
-        te[1],
-        te[2],
-        ti[0],
-        ti[1],
-        ti[2],
-        pc._off_spread,
-        pc._off_within,
-        p.excite_radius_cells,
-        p.inhibit_weight,
-        p.global_inhibition,
-    )
+    return (act, start, *PoseCells(config)._network)
 
 
 def _blobs(rng, shape, count):
