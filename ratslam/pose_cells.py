@@ -190,7 +190,7 @@ class PoseCells:
     def _inject_global(self, g: np.ndarray, energy) -> None:
         """Inject at global cells ``g`` (3, k) as (θ', x', y')."""
         n = self._n
-        energy = np.asarray(energy, dtype=float)
+        energy = np.ascontiguousarray(energy, dtype=float)
         if energy.shape != (g.shape[1],):
             energy = np.full(g.shape[1], energy)
         todo = np.ones(g.shape[1], dtype=bool)
