@@ -1,7 +1,9 @@
 """Snaps: the pose-cell activity peak jumping further than ``snap_cells`` in one tick.
 
-Defined once here; :class:`ratslam.RatSLAM` reports ``snapped`` with it and
-``harness.report.metrics.snap_mask`` counts snaps over a stored peak path with it.
+Defined once here, in two forms that do the same operations in the same order (tested bit for
+bit): :class:`ratslam.RatSLAM` reports ``snapped`` each tick with :func:`snapped` (one pair of
+peaks, scalar arithmetic) and ``harness.report.metrics.snap_mask`` counts snaps over a stored peak
+path with :func:`is_snap` (arrays).
 """
 
 from __future__ import annotations
