@@ -111,6 +111,27 @@ def _window(p, n):
 
 
 @njit(cache=True)
+def above(box, level):
+    """Per-axis projections (θ', x', y') of the cells of ``box`` above ``level``, or-ed as bytes
+    without branches (the row loop vectorises)."""
+    lt, lx, ly = box.shape
+    pt = np.zeros(lt, dtype=np.uint8)
+    px = np.zeros(lx, dtype=np.uint8)
+    py = np.zeros(ly, dtype=np.uint8)
+    for t in range(lt):
+        for x in range(lx):
+            row = box[t, x]
+            row_any = np.uint8(0)
+            for y in range(ly):
+                b = np.uint8(row[y] > level)
+                py[y] |= b
+                row_any |= b
+            pt[t] |= row_any
+            px[x] |= row_any
+    return pt.astype(np.bool_), px.astype(np.bool_), py.astype(np.bool_)
+
+
+@njit(cache=True)
 def inhibit_clip(exc, taps0, taps1, taps2, off_within, weight, global_inh, n):
     """Steps 2-3 for one excited box ``exc``: ``max(exc - weight · inh - global_inh, 0)``, ``inh``
     being the inhibition kernel applied within the box.
@@ -123,20 +144,7 @@ def inhibit_clip(exc, taps0, taps1, taps2, off_within, weight, global_inh, n):
     (``qt, qx, qy``); the window is empty if no cell is above the global inhibition.
     """
     lt, lx, ly = exc.shape
-    pt = np.zeros(lt, dtype=np.bool_)
-    px = np.zeros(lx, dtype=np.bool_)
-    py = np.zeros(ly, dtype=np.bool_)
-    for t in range(lt):
-        for x in range(lx):
-            row = exc[t, x]
-            row_any = False
-            for y in range(ly):
-                if row[y] > global_inh:
-                    py[y] = True
-                    row_any = True
-            if row_any:
-                pt[t] = True
-                px[x] = True
+    pt, px, py = above(exc, global_inh)
     if not pt.any():
         none = np.zeros(0, dtype=np.bool_)
         return pt, px, py, 0, 0, 0, np.zeros((0, 0, 0)), none, none, none
@@ -155,27 +163,25 @@ def inhibit_clip(exc, taps0, taps1, taps2, off_within, weight, global_inh, n):
     else:
         inh = np.zeros((nt, nx, ny))
     act = np.empty((nt, nx, ny))
-    qt = np.zeros(nt, dtype=np.bool_)
-    qx = np.zeros(nx, dtype=np.bool_)
-    qy = np.zeros(ny, dtype=np.bool_)
+    qt = np.zeros(nt, dtype=np.uint8)  # projections of the non-zero cells, or-ed as bytes
+    qx = np.zeros(nx, dtype=np.uint8)  # without branches (the row loop vectorises)
+    qy = np.zeros(ny, dtype=np.uint8)
     for t in range(nt):
         for x in range(nx):
             e_row = exc[t0 + t, x0 + x, y0 : y0 + ny]
             i_row = inh[t, x]
             a_row = act[t, x]
-            row_any = False
+            row_any = np.uint8(0)
             for y in range(ny):
                 v = e_row[y] - weight * i_row[y] - global_inh
-                if v > 0.0:
-                    a_row[y] = v
-                    qy[y] = True
-                    row_any = True
-                else:
-                    a_row[y] = 0.0
-            if row_any:
-                qt[t] = True
-                qx[x] = True
-    return pt, px, py, t0, x0, y0, act, qt, qx, qy
+                alive = v > 0.0
+                a_row[y] = v if alive else 0.0
+                b = np.uint8(alive)
+                qy[y] |= b
+                row_any |= b
+            qt[t] |= row_any
+            qx[x] |= row_any
+    return pt, px, py, t0, x0, y0, act, qt.astype(np.bool_), qx.astype(np.bool_), qy.astype(np.bool_)
 
 
 @njit(cache=True)

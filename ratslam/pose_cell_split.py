@@ -26,26 +26,6 @@ from . import pose_cell_kernels as K
 
 
 @njit(cache=True)
-def _projections(act, lo, hi):
-    """Per-axis projections of the non-zero cells of ``act`` within local ranges ``lo..hi``."""
-    pt = np.zeros(hi[0] - lo[0], dtype=np.bool_)
-    px = np.zeros(hi[1] - lo[1], dtype=np.bool_)
-    py = np.zeros(hi[2] - lo[2], dtype=np.bool_)
-    for t in range(lo[0], hi[0]):
-        for x in range(lo[1], hi[1]):
-            row = act[t, x]
-            row_any = False
-            for y in range(lo[2], hi[2]):
-                if row[y] != 0.0:
-                    py[y - lo[2]] = True
-                    row_any = True
-            if row_any:
-                pt[t - lo[0]] = True
-                px[x - lo[1]] = True
-    return pt, px, py
-
-
-@njit(cache=True)
 def _pieces(p, n, reach):
     """Runs of True in projection ``p`` (local to a range of a ring of ``n``) separated by more
     than ``reach`` False entries, as (k, 2) local [start, end); one run if the first and last
@@ -76,6 +56,18 @@ def _pieces(p, n, reach):
 
 
 @njit(cache=True)
+def _one_group(act, n, reach):
+    """Whether :func:`groups` would find at most one group in ``act``: no axis of the whole box's
+    projections cut (the usual case, decided without building the groups)."""
+    pt, px, py = K.above(act, 0.0)  # the activity is never negative: non-zero cells
+    return (
+        _pieces(pt, n[0], reach).shape[0] <= 1
+        and _pieces(px, n[1], reach).shape[0] <= 1
+        and _pieces(py, n[2], reach).shape[0] <= 1
+    )
+
+
+@njit(cache=True)
 def groups(act, n, reach):
     """Local ranges (k, 6) as (t0, t1, x0, x1, y0, y1) of the groups of non-zero cells of box
     ``act`` that lie more than ``reach`` empty cells apart on some axis (tight around their cells;
@@ -87,7 +79,7 @@ def groups(act, n, reach):
     stack.append((lo0, hi0))
     while len(stack):
         lo, hi = stack.pop()
-        pt, px, py = _projections(act, lo, hi)
+        pt, px, py = K.above(act[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]], 0.0)
         for a in range(3):
             pieces = _pieces(pt if a == 0 else (px if a == 1 else py), n[a], reach)
             if pieces.shape[0] != 1:  # all zero, or cut along this axis
@@ -118,8 +110,7 @@ def network_box(
     normalisation), group by group (see the module docstring); bit-for-bit the same result.
     Returns (new start, activity, mass)."""
     reach = 2 * r_exc - off_within[0]  # 2 · excite radius + inhibit radius (off_within = -radius)
-    parts = groups(act, n, reach)
-    if parts.shape[0] <= 1:
+    if _one_group(act, n, reach):  # the usual case: the whole box at once
         return K.network_box(
             act,
             start,
@@ -136,6 +127,7 @@ def network_box(
             inhibit_weight,
             global_inhibition,
         )
+    parts = groups(act, n, reach)  # two or more
     # the frame of the whole box: grown by the excitation radius (at most the ring)
     lg = np.empty(3, dtype=np.int64)
     grown = np.empty(3, dtype=np.int64)
