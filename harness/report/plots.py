@@ -78,7 +78,8 @@ def panel_pose_cells(peak_cells: np.ndarray, snapped: np.ndarray, grid_shape, pa
     step = p[1:] - p[:-1]
     wrapped = (np.abs(step[:, 0]) > nx / 2) | (np.abs(step[:, 1]) > ny / 2)
     jump = snapped[1:] | wrapped
-    ax.add_collection(LineCollection(seg[~jump], colors="tab:blue", linewidths=1.2))
+    # the path as one line broken at the jumps (one path to draw, not a path per tick)
+    ax.plot(*np.insert(p.astype(float), np.flatnonzero(jump) + 1, np.nan, axis=0).T, color="tab:blue", lw=1.2)
     ax.add_collection(
         LineCollection(seg[jump & ~wrapped], colors="tab:red", linewidths=0.4, label=f"snaps ({int(snapped.sum())})")
     )
