@@ -33,6 +33,7 @@ def test_group_iteration_equals_whole_box(grid, min_split):
     nx, ny, nth = grid
     config = RatSLAMConfig(pose_cells=PoseCellConfig(nx=nx, ny=ny, n_theta=nth))
     n = (nth, nx, ny)
+    ring = np.array(n, dtype=np.int64)
     rng = np.random.default_rng(sum(grid))
     split = 0
     for trial in range(300):
@@ -45,8 +46,8 @@ def test_group_iteration_equals_whole_box(grid, min_split):
         assert np.array_equal(got[0], want[0]), trial
         assert got[1].shape == want[1].shape and got[1].tobytes() == want[1].tobytes(), trial
         assert got[2] == want[2], trial
-        parts = len(S.groups(act, np.array(n, dtype=np.int64), 7))
-        assert S._one_group(act, np.array(n, dtype=np.int64), 7) == (parts <= 1), trial  # the shortcut's test
+        parts = len(S.groups(act, ring, 7))
+        assert S._one_group(act, ring, 7) == (parts <= 1), trial  # the shortcut's test
         split += parts > 1
     assert split >= min_split  # the grouped path is exercised, not only the whole-box fallback
 
