@@ -2,7 +2,7 @@
 
 import pytest
 
-from tests.helpers import cli
+from tests.helpers import cli, cli_process
 from worlds import ObservationLog
 
 
@@ -20,7 +20,8 @@ def test_simulate_writes_log_and_png(tmp_path):
 
 
 def test_list_names_the_worlds():
-    r = cli("list")
+    """``python -m harness.cli list`` in a fresh interpreter (the entry point itself)."""
+    r = cli_process("list")
     assert r.returncode == 0
     for name in ("small_loop", "office_floor", "full_floor", "open_plan"):
         assert name in r.stdout
