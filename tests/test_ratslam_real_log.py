@@ -15,6 +15,22 @@ from worlds.real_data import load_plaza
 pytestmark = pytest.mark.slow  # 15-minute streams or real logs end to end
 
 
+_runs: dict = {}
+
+
+def _plaza_run(name, seed, change=None):
+    """``_run`` of Plaza log ``name`` (labels of ``seed``) with its derived configuration, changed by
+    ``change`` (a ``replace`` mapping) if given; each run computed once per module (tests share them)."""
+    log = load_plaza(name, seed=seed)
+    cfg, _, _ = derive_configs(log)
+    if change is not None:
+        cfg = cfg.replace(**change)
+    key = (name, seed, cfg)
+    if key not in _runs:
+        _runs[key] = _run(log, cfg)
+    return cfg, _runs[key]
+
+
 def _run(log, cfg):
     rs = RatSLAM(cfg)
     online = np.zeros((len(log), 3))
@@ -32,10 +48,8 @@ def _run(log, cfg):
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_derived_experience_map_beats_plaza1_odometry(seed):
     """Measured experience map / online / odometry: 1.33/1.47, 1.33/1.45, 1.34/1.44 vs 1.47 m."""
-    log = load_plaza("plaza1", seed=seed)
-    cfg, _, _ = derive_configs(log)
+    cfg, (mapped, online, odometry) = _plaza_run("plaza1", seed)
     assert cfg.reentry.position_sigma_m > 0
-    mapped, online, odometry = _run(log, cfg)
     assert mapped < 0.97 * odometry
     assert online < 1.1 * odometry
 
@@ -52,11 +66,9 @@ def test_plaza1_online_pose_is_better_with_the_fixes_chained():
     """The derived configuration chains the re-entries' fixes (harness/run/scale.py): the online pose,
     without it worse than the dead reckoning, is no worse with it. Measured, label seed 0, online
     ATE: 1.523 m not chained, 1.466 m chained, odometry 1.472 m (seeds 0-7: better on every seed)."""
-    log = load_plaza("plaza1", seed=0)
-    cfg, _, _ = derive_configs(log)
+    cfg, (_, online, odometry) = _plaza_run("plaza1", 0)
     assert cfg.reentry.chain_fixes
-    _, online, odometry = _run(log, cfg)
-    _, unchained, _ = _run(log, cfg.replace(reentry={"chain_fixes": False}))
+    _, (_, unchained, _) = _plaza_run("plaza1", 0, {"reentry": {"chain_fixes": False}})
     assert online < odometry < unchained
 
 
