@@ -123,3 +123,31 @@ def test_earlier_and_new_key_together_are_refused(tmp_path):
     both.write_text("[gtsam.yaw_bias]\nsearch_max_rad_s = 0.05\nsearch_max_deg_s = 3.0\n")
     with pytest.raises(Exception, match=r"search_max_rad_s: an earlier name of search_max_deg_s"):
         read_config_file(both)
+
+
+def test_tick_increments_without_small_turns_equal_the_general_form():
+    """The arcs of ticks that all turn (no series needed) are the general form's values bit for
+    bit, the general form being the per-tick choice between the series and the closed forms."""
+    from slamkit.arcs import SMALL_TURN, tick_increments
+
+    rng = np.random.default_rng(3)
+    dt = rng.uniform(0.05, 0.2, 40)
+    v = rng.uniform(-1.0, 2.0, 40)
+    w = rng.normal(0.0, 0.5, 40)
+    bias = 0.01
+    a, phi = v * dt, (w - bias) * dt
+    assert np.all(np.abs(phi) >= SMALL_TURN)
+    small = np.abs(phi) < SMALL_TURN
+    safe = np.where(small, 1.0, phi)
+    general = (
+        a * np.where(small, 1.0 - phi * phi / 6.0, np.sin(safe) / safe),
+        a * np.where(small, phi / 2.0 - phi**3 / 24.0, (1.0 - np.cos(safe)) / safe),
+        phi,
+    )
+    for got, want in zip(tick_increments(dt, v, w, bias), general):
+        assert np.array_equal(got, want)
+    # a tick that does not turn takes the series, its neighbours the closed forms
+    w[7] = bias
+    dx, dy, dth = tick_increments(dt, v, w, bias)
+    assert dth[7] == 0.0 and dx[7] == v[7] * dt[7] and dy[7] == 0.0
+    assert np.array_equal(dx[8:], general[0][8:]) and np.array_equal(dy[:7], general[1][:7])
