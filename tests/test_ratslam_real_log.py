@@ -56,9 +56,9 @@ def test_derived_experience_map_beats_plaza1_odometry(seed):
 
 def test_plaza1_without_the_fusion_is_worse_than_odometry():
     """The same run with the fusion off (the paper's re-entries): map 1.77 m, online 2.44 m."""
-    log = load_plaza("plaza1", seed=2)
-    cfg, _, _ = derive_configs(log)
-    mapped, online, odometry = _run(log, cfg.replace(reentry={"position_sigma_m": 0.0, "heading_sigma_deg": 0.0}))
+    _, (mapped, online, odometry) = _plaza_run(
+        "plaza1", 2, {"reentry": {"position_sigma_m": 0.0, "heading_sigma_deg": 0.0}}
+    )
     assert mapped > odometry and online > odometry
 
 
@@ -75,8 +75,6 @@ def test_plaza1_online_pose_is_better_with_the_fixes_chained():
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_derived_experience_map_beats_plaza2_odometry_clearly(seed):
     """Measured experience map / online: 0.88/2.44, 1.18/2.40, 1.06/2.32 m vs 15.9 m."""
-    log = load_plaza("plaza2", seed=seed)
-    cfg, _, _ = derive_configs(log)
+    cfg, (mapped, online, odometry) = _plaza_run("plaza2", seed)
     assert cfg.pose_cells.cell_size_m > 0.4  # at most 0.75 cells per tick
-    mapped, online, odometry = _run(log, cfg)
     assert mapped < odometry / 5 and online < odometry / 3
