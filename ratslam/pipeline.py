@@ -6,6 +6,7 @@ import dataclasses
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -16,11 +17,11 @@ from slamkit.poses import fit_se2, place
 from .columns import Growable
 from .config import RatSLAMConfig
 from .experience_map import ExperienceMap
+from .front_end import Adoption, FrontEnd, Rebuild
 from .local_view import LocalView
 from .pose_cells import PoseCells
-from .snaps import snapped
 from .view_gate import ViewGate
-from .yaw_bias_correction import YawBiasCorrection, settle
+from .yaw_bias_correction import remove_yaw_bias, settle
 
 # format 2: the latest snap; 3: nested config; 4: path noise per experience; 5: loop-closure
 # candidate and the latest re-entry's fix (a state without the yaw-bias search's arrays, saved
@@ -28,19 +29,6 @@ from .yaw_bias_correction import YawBiasCorrection, settle
 # format 6: the ticks taken and each tick's anchor (kept for a rebuild after an adopted yaw-rate bias)
 _FORMAT = "ratslam-state-6"
 _WITHOUT_TICKS = "ratslam-state-5"  # loads with yaw_bias.rebuild off: its ticks were not kept
-
-
-def _input_columns() -> Growable:
-    """Each tick's inputs as stepped (the yaw rate as logged, before any bias is taken off)."""
-    return Growable(
-        {
-            "dt": ((), float),
-            "v_trans": ((), float),
-            "v_rot": ((), float),
-            "scene": ((), np.int64),
-            "rotation": ((), float),
-        }
-    )
 
 
 def _anchor_columns() -> Growable:
@@ -66,31 +54,30 @@ class RatSLAM:
     ``rebuild`` off, the map's transitions are corrected; every later tick feeds the corrected
     yaw rate.
 
+    The search, the view cells and the pose cells form the :attr:`front_end`
+    (:class:`ratslam.front_end.FrontEnd`), which systems configured alike in those parts may
+    share while they step one stream (:func:`ratslam.front_end.shared_front_ends`).
+
     The system never sees ground truth: only ``dt``, ``v_trans``, ``v_rot``, ``scene_id`` (and,
     from a camera, the view's rotation relative to its template).
     """
 
     def __init__(self, config: RatSLAMConfig | None = None):
         self._config = config if config is not None else RatSLAMConfig()
-        self._bias = math.radians(self._config.pose_cells.path_integration_bias_deg_s)
-        self._grid = tuple(float(v) for v in self._config.shape)
-        self._yaw_bias = YawBiasCorrection(self._config)
-        yb = self._config.yaw_bias
-        # the ticks taken and where each left the robot, kept while a rebuild may need them
-        self._history = _input_columns() if yb.search and yb.rebuild else None
-        self._anchors = _anchor_columns() if self._history is not None else None
+        self.front_end = FrontEnd(self._config)
+        """The search, view cells and pose cells this system reads (possibly shared)."""
+        # each tick's anchor, kept while a rebuild may need them
+        self._anchors = _anchor_columns() if self.front_end.history is not None else None
+        self._adoptions = 0  # the front end's adopted biases this system has acted on
         self.rebuilds = 0
         """How often an adopted yaw-rate bias rebuilt the system (``yaw_bias.rebuild``)."""
-        self._reset_network()
+        self._reset_map()
 
-    def _reset_network(self) -> None:
-        """Fresh pose cells, view cells, experience map and view gate, at tick 0."""
-        self.pose_cells = PoseCells(self._config)
-        self.local_view = LocalView(self._config)
+    def _reset_map(self) -> None:
+        """Fresh experience map and view gate, at tick 0."""
         self.experience_map = ExperienceMap(self._config)
         self._view_gate = ViewGate(self._config)
         self._tick = 0
-        self._snapped = False
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float = 0.0) -> None:
@@ -102,24 +89,33 @@ class RatSLAM:
         self._check_tick(dt, v_trans, v_rot, scene_id)
         if not math.isfinite(view_rotation):
             raise ValueError(f"step: view_rotation must be a finite number of radians, got {view_rotation!r}")
-        unbiased = self._unbiased(dt, v_trans, v_rot, scene_id)
-        if self._history is not None:
-            self._history.append(dt=dt, v_trans=v_trans, v_rot=v_rot, scene=scene_id, rotation=view_rotation)
-        self._advance(self._tick, dt, v_trans, unbiased, scene_id, view_rotation)
+        front = self.front_end
+        inputs = (dt, v_trans, v_rot, scene_id, view_rotation)
+        if front.tick == self._tick:
+            out = front.advance(*inputs)
+        elif front.tick == self._tick + 1 and front.inputs == inputs:  # a system sharing it took this tick
+            assert front.output is not None
+            out = front.output
+        else:
+            raise RuntimeError(
+                f"step: this system is at tick {self._tick}, the front end it shares at tick {front.tick}"
+                + (" with other inputs" if front.tick == self._tick + 1 else "")
+                + ": systems sharing a front end must take the same ticks"
+            )
+        for adoption in front.adoptions[self._adoptions :]:
+            self._adopt(adoption)
+        self._adoptions = len(front.adoptions)
+        self._map_step(self._tick, dt, v_trans, scene_id, out.v_rot, out.peak, out.snapped)
 
-    def _advance(self, k: int, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float) -> None:
-        """Tick ``k`` through the view cells, pose cells and experience map, ``v_rot`` the yaw
-        rate with the bias found so far taken off."""
-        pc = self.pose_cells
-        old_peak = pc.peak
-        self.local_view.inject(scene_id, k, pc, view_rotation)
-        pc.step(v_trans * dt, (v_rot + self._bias) * dt)
-        self.local_view.learn(k, pc)
-        new_peak = pc.peak
-        self._snapped = snapped(old_peak, new_peak, self._grid, self._config.pose_cells.snap_threshold_cells)
+    def _map_step(
+        self, k: int, dt: float, v_trans: float, scene_id: int, v_rot: float, peak: np.ndarray, snapped: bool
+    ) -> None:
+        """Tick ``k`` through the view gate and experience map given the front end's outputs:
+        ``v_rot`` the yaw rate with the bias found so far taken off, the pose-cell ``peak`` and
+        whether it ``snapped``."""
         em = self.experience_map
         em.integrate(dt, v_trans, v_rot)
-        em.update(k, new_peak, self._view_gate.confirmed(k, scene_id, self._snapped))
+        em.update(k, peak, self._view_gate.confirmed(k, scene_id, snapped))
         for _ in range(self._config.experience_map.correction_iterations):
             em.correct()
         if self._anchors is not None:
@@ -137,29 +133,36 @@ class RatSLAM:
                 f"{extent:g} m (pose_cells.nx/ny x cell_size_m)"
             )
 
-    def _unbiased(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> float:
-        """The tick's yaw rate less the bias found so far; a newly adopted bias first rebuilds
-        the system (``yaw_bias.rebuild``) or corrects the map's transitions
-        (:meth:`ratslam.yaw_bias_correction.YawBiasCorrection.unbiased`)."""
-        rebuild = self._rebuild if self._history is not None else None
-        return self._yaw_bias.unbiased(self.experience_map, dt, v_trans, v_rot, scene_id, rebuild)
+    def _adopt(self, adoption: Adoption) -> None:
+        """Act on a bias the front end's search adopted: rebuild the map from the front end's
+        replay (``yaw_bias.rebuild``) or correct its transitions in place."""
+        if adoption.rebuilt:
+            replay = self.front_end.replay
+            assert replay is not None and self.front_end.adoptions[-1] is adoption, "adopted this tick"
+            self._rebuild(replay, adoption.settle_map)
+        else:
+            remove_yaw_bias(self.experience_map, adoption.change, adoption.settle_map)
 
-    def _rebuild(self, bias: float, settle_map: bool) -> None:
-        """Step fresh pose cells, view cells and experience map through every tick so far with
-        ``bias`` (rad/s) taken off the yaw rate, as if it had been known from the first tick. With
-        ``settle_map`` the new map's correction is then solved to its fixed point (:func:`settle`,
-        as a map corrected in place is: the per-tick correction, eqs 12-14, relaxes it only
-        locally). The new map is then laid onto the frame of the map before the rebuild (the SE(2)
-        least-squares fit of where each map places the ticks so far), so the map the user holds
-        does not turn or shift as a whole at the correction; only its shape changes."""
-        assert self._history is not None and self._anchors is not None
+    def _rebuild(self, replay: Rebuild, settle_map: bool) -> None:
+        """A fresh experience map stepped through every tick so far on the front end's replay
+        (the pose cells and view cells stepped again with the adopted bias taken off, as if it had
+        been known from the first tick). With ``settle_map`` the new map's correction is then
+        solved to its fixed point (:func:`settle`, as a map corrected in place is: the per-tick
+        correction, eqs 12-14, relaxes it only locally). The new map is then laid onto the frame
+        of the map before the rebuild (the SE(2) least-squares fit of where each map places the
+        ticks so far), so the map the user holds does not turn or shift as a whole at the
+        correction; only its shape changes."""
+        assert self._anchors is not None
         before = self._placed()
-        self._reset_network()
+        self._reset_map()
         self._anchors = _anchor_columns()
-        h = self._history
-        rows = zip(*(h.view(k).tolist() for k in ("dt", "v_trans", "v_rot", "scene", "rotation")))
-        for k, (dt, v, w, scene, rotation) in enumerate(rows):
-            self._advance(k, dt, v, w - bias, scene, rotation)
+        columns = (
+            *(c.tolist() for c in (replay.dt, replay.v_trans, replay.scene, replay.v_rot)),
+            replay.peak,
+            replay.snapped.tolist(),
+        )
+        for k, (dt, v, scene, w, peak, snapped) in enumerate(zip(*columns)):
+            self._map_step(k, dt, v, scene, w, peak, snapped)
         em = self.experience_map
         if settle_map:
             settle(em)
@@ -211,7 +214,17 @@ class RatSLAM:
     @property
     def yaw_bias(self) -> float:
         """The yaw-rate bias (rad/s) taken off the odometry: 0 until the search adopts one."""
-        return self._yaw_bias.bias
+        return self.front_end.yaw_bias.bias
+
+    @property
+    def pose_cells(self) -> PoseCells:
+        """The pose cells (the front end's)."""
+        return self.front_end.pose_cells
+
+    @property
+    def local_view(self) -> LocalView:
+        """The local view cells (the front end's)."""
+        return self.front_end.local_view
 
     @property
     def pose_cell_activity(self) -> np.ndarray:
@@ -234,7 +247,7 @@ class RatSLAM:
     def snapped(self) -> bool:
         """Whether this tick's peak jumped by more than ``pose_cells.snap_threshold_cells`` (wrap-aware;
         :func:`ratslam.snaps.is_snap`)."""
-        return self._snapped
+        return self.front_end.snapped
 
     @property
     def experience_poses(self) -> np.ndarray:
@@ -294,16 +307,12 @@ class RatSLAM:
     # ------------------------------------------------------------------ persistence
     def save(self, path) -> None:
         """Write the whole state (config, pose cells, view cells, map) to one ``.npz`` file."""
-        arrays = {}
-        arrays.update(self.pose_cells.get_state())
-        arrays.update(self.local_view.get_state())
+        arrays: dict[str, Any] = self.front_end.get_state()  # the search's adopted bias is in its state
         arrays.update(self.experience_map.get_state())
-        arrays["rs_tick"] = np.array([self._tick, int(self._snapped), *self._view_gate.get_state()], dtype=np.int64)
-        arrays.update(self._yaw_bias.get_state())  # the search's adopted bias is in its state
+        arrays["rs_tick"] = np.array([self._tick, int(self.snapped), *self._view_gate.get_state()], dtype=np.int64)
         arrays["rs_rebuilds"] = np.array([self.rebuilds], dtype=np.int64)
-        for prefix, columns in (("rs_history_", self._history), ("rs_anchors_", self._anchors)):
-            if columns is not None:
-                arrays.update({prefix + k: columns.view(k).copy() for k in columns.cols})
+        if self._anchors is not None:
+            arrays.update({"rs_anchors_" + k: self._anchors.view(k).copy() for k in self._anchors.cols})
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
@@ -324,17 +333,14 @@ class RatSLAM:
         if fmt == _WITHOUT_TICKS:
             config = config.replace(yaw_bias={"rebuild": False})
         obj = cls(config)
-        obj.pose_cells.set_state(s)
-        obj.local_view.set_state(s)
+        tick, snapped = (int(v) for v in s["rs_tick"][:2])
+        obj.front_end.set_state(s, tick, bool(snapped))
         obj.experience_map.set_state(s)
-        obj._tick, snapped = (int(v) for v in s["rs_tick"][:2])
-        obj._snapped = bool(snapped)
+        obj._tick = tick
         obj._view_gate.set_state(s["rs_tick"][2:])
-        obj._yaw_bias.set_state(s)
         obj.rebuilds = int(s["rs_rebuilds"][0]) if "rs_rebuilds" in s else 0
-        for prefix, columns in (("rs_history_", obj._history), ("rs_anchors_", obj._anchors)):
-            if columns is not None:
-                columns.load({k: s[prefix + k] for k in columns.cols})
+        if obj._anchors is not None:
+            obj._anchors.load({k: s["rs_anchors_" + k] for k in obj._anchors.cols})
         return obj
 
 

@@ -2,18 +2,18 @@
 
 The search (:mod:`slamkit.yaw_bias`, shared with the pose graph) finds a constant yaw-rate
 (gyro) bias from revisited scene numbers. :class:`YawBiasCorrection` runs it on RatSLAM's
-stream and, once it adopts a bias, takes the bias off every later tick's yaw rate and out of
-what was built so far: by the pipeline's rebuild (``yaw_bias.rebuild``, the default: the system
-stepped again from its first tick, :class:`ratslam.pipeline.RatSLAM`) or, without one, out of the
-experience map's transitions (:func:`remove_yaw_bias`, acting on the map's arrays; the pose cells
-and view cells keep the places where the biased odometry laid them). Without either the
-transitions each carry the bias's turn and the relaxation (eqs 12-14) cannot take it out.
+stream (:class:`ratslam.front_end.FrontEnd`) and, once it adopts a bias, the bias is taken off
+every later tick's yaw rate and out of what was built so far: by a rebuild (``yaw_bias.rebuild``,
+the default: the system stepped again from its first tick, :class:`ratslam.pipeline.RatSLAM`) or,
+without one, out of the experience map's transitions (:func:`remove_yaw_bias`, acting on the
+map's arrays; the pose cells and view cells keep the places where the biased odometry laid them).
+Without either the transitions each carry the bias's turn and the relaxation (eqs 12-14) cannot
+take it out.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -38,7 +38,7 @@ def bias_search(config: RatSLAMConfig) -> YawBiasSearch:
 
 class YawBiasCorrection:
     """The search of ``config.yaw_bias`` (none with ``search`` off: the paper's odometry as it
-    comes) and the correction of the map when it adopts a bias."""
+    comes), which says when it adopts a bias (:meth:`adopt`)."""
 
     def __init__(self, config: RatSLAMConfig):
         self.config = config
@@ -49,33 +49,20 @@ class YawBiasCorrection:
         """The yaw-rate bias (rad/s) taken off the odometry: 0 until the search adopts one."""
         return self.search.bias if self.search is not None else 0.0
 
-    def unbiased(
-        self,
-        em: ExperienceMap,
-        dt: float,
-        v_trans: float,
-        v_rot: float,
-        scene_id: int,
-        rebuild: Callable[[float, bool], None] | None = None,
-    ) -> float:
-        """The tick's yaw rate less the bias found so far. A newly adopted bias is first handed to
-        ``rebuild`` (the system stepped again from its first tick with the bias taken off) or,
-        without one, corrects the map's transitions; either way the map is settled when the
-        change turns it by more than ``yaw_bias.settle_turn_deg`` over its span (``rebuild``'s
-        second argument)."""
+    def adopt(self, dt: float, v_trans: float, v_rot: float, scene_id: int) -> tuple[float, bool] | None:
+        """Feed one tick to the search. When it adopts a new bias: ``(change, settle_map)``, the
+        bias's change (rad/s) and whether the map is to be solved to its fixed point afterwards
+        (the change turns it by more than ``yaw_bias.settle_turn_deg`` over its span so far);
+        otherwise None. The tick's yaw rate less :attr:`bias` is what the system steps."""
         search = self.search
         if search is None:
-            return v_rot
+            return None
         before = search.bias
-        if search.add(dt, v_trans, v_rot, scene_id) is not None:
-            change = search.bias - before
-            elapsed = search.time - dt  # the map's span before this tick
-            settle_map = abs(change) * elapsed > math.radians(self.config.yaw_bias.settle_turn_deg)
-            if rebuild is not None:
-                rebuild(search.bias, settle_map)
-            else:
-                remove_yaw_bias(em, change, settle_map)
-        return v_rot - search.bias
+        if search.add(dt, v_trans, v_rot, scene_id) is None:
+            return None
+        change = search.bias - before
+        elapsed = search.time - dt  # the map's span before this tick
+        return change, abs(change) * elapsed > math.radians(self.config.yaw_bias.settle_turn_deg)
 
     def get_state(self) -> dict:
         """The search's arrays (its adopted bias among them); none with the search off."""

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from ratslam import RatSLAMConfig
+from ratslam import RatSLAM, RatSLAMConfig
 from ratslam.experience_map import ExperienceMap
 from ratslam.yaw_bias_correction import YawBiasCorrection, remove_yaw_bias, settle, turn_along_creation
 
@@ -56,23 +56,34 @@ def test_settle_solves_the_correction_to_its_fixed_point_the_current_experience_
 
 def test_the_search_off_takes_nothing_off():
     yb = YawBiasCorrection(RatSLAMConfig().replace(yaw_bias={"search": False}))
-    em = _chain()
     assert yb.search is None and yb.bias == 0.0 and yb.get_state() == {}
-    assert yb.unbiased(em, 0.1, 0.5, 0.3, 4) == 0.3
+    assert yb.adopt(0.1, 0.5, 0.3, 4) is None and yb.bias == 0.0
+    slam = RatSLAM(RatSLAMConfig().replace(yaw_bias={"search": False}))
+    slam.step(0.1, 0.5, 0.3, 4)
+    assert slam.front_end.output is not None and slam.front_end.output.v_rot == 0.3
 
 
 def test_an_adopted_bias_is_taken_off_the_yaw_rate_and_the_map():
-    """A search that adopts a bias: the tick's yaw rate loses it and the map's links lose its turn
-    over their time (the map's span so far is what decides the settling, not checked here)."""
-    yb = YawBiasCorrection(RatSLAMConfig())
-    assert yb.search is not None
-    em = _chain()
+    """A search that adopts a bias: the tick's yaw rate loses it and, without a rebuild, the map's
+    links lose its turn over their time (the map's span so far is what decides the settling,
+    not checked here); a later tick loses it too, the map untouched."""
+    slam = RatSLAM(RatSLAMConfig().replace(yaw_bias={"rebuild": False}))
+    slam.experience_map = _chain()
+    search = slam.front_end.yaw_bias.search
+    assert search is not None
+    adopted = [0.05]
 
     def adopt(dt, v, w, scene):
-        yb.search.bias = 0.05
-        return 0.05
+        if not adopted:
+            return None
+        search.bias = adopted.pop()
+        return search.bias
 
-    yb.search.add = adopt
-    assert yb.unbiased(em, 0.1, 0.5, 0.3, 4) == pytest.approx(0.25)
-    np.testing.assert_allclose(em.link_column("phi"), -0.1)
-    assert yb.bias == 0.05 and math.isclose(yb.unbiased(em, 0.1, 0.5, 0.3, 4), 0.25)
+    search.add = adopt
+    slam.step(0.1, 0.5, 0.3, -1)
+    assert slam.front_end.output is not None and slam.front_end.output.v_rot == pytest.approx(0.25)
+    np.testing.assert_allclose(slam.experience_map.link_column("phi"), -0.1)
+    assert slam.yaw_bias == 0.05 and slam.rebuilds == 0
+    slam.step(0.1, 0.5, 0.3, -1)
+    assert math.isclose(slam.front_end.output.v_rot, 0.25)
+    np.testing.assert_allclose(slam.experience_map.link_column("phi"), -0.1)

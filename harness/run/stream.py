@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from ratslam import RatSLAM
+from ratslam.front_end import shared_front_ends
 from slamkit.poses import place
 from worlds import ObservationLog
 from worlds.errors import InputError
@@ -37,7 +39,8 @@ class TickError(InputError):
 @dataclass
 class Trace:
     """One system's run over a stream. ``pose`` (N, 3): its online estimate after each tick;
-    ``wall_s``: seconds spent in its steps (and its ``finalize``); for a system with pose cells,
+    ``wall_s``: seconds spent in its steps (and its ``finalize``; a RatSLAM whose front end another
+    computed for it: its map's steps, :func:`step_stream`); for a system with pose cells,
     ``peak_cells`` / ``peak_metres`` (N, 3) and ``snapped`` (N,) after each tick, else None."""
 
     system: Any
@@ -87,7 +90,12 @@ def step_stream(
     times; ``finalize``: a system with a ``finalize`` method (the pose graph's last optimisation)
     has it called after the last tick. A tick a system refuses (a ``ValueError``) is a
     :class:`TickError` naming the tick. Returns each system's :class:`Trace` and the seconds spent
-    outside the systems (``on_tick`` and bookkeeping)."""
+    outside the systems (``on_tick`` and bookkeeping).
+
+    RatSLAMs that have not stepped yet and are configured alike in the yaw-rate search, view
+    cells and pose cells share one front end while they step (:func:`ratslam.front_end.shared_front_ends`:
+    computed once, the same values bit for bit); the first of them in the mapping's order is
+    timed with it, the others with their view gates and experience maps alone."""
     n = len(log)
     names = list(systems)
     stepping = [systems[s] for s in names]
@@ -103,30 +111,31 @@ def step_stream(
     columns = [log.dt.tolist(), log.v_trans.tolist(), log.v_rot.tolist(), log.scene_id.tolist()]
     if log.view_rotation is not None:  # a camera stream: each view's rotation against its template
         columns.append(log.view_rotation.tolist())
-    for k, row in enumerate(zip(*columns)):
-        for i, system in enumerate(stepping):
+    with shared_front_ends(s for s in stepping if isinstance(s, RatSLAM)):  # each computed once
+        for k, row in enumerate(zip(*columns)):
+            for i, system in enumerate(stepping):
+                t0 = clock()
+                try:
+                    system.step(*row)
+                except ValueError as e:
+                    raise TickError(k, str(e)) from None
+                wall[i] += clock() - t0
             t0 = clock()
-            try:
-                system.step(*row)
-            except ValueError as e:
-                raise TickError(k, str(e)) from None
-            wall[i] += clock() - t0
-        t0 = clock()
-        for i, system in enumerate(stepping):
-            poses[i][k] = system.pose
-            peak = cells[i]
-            if peak is not None:
-                peak[0][k] = system.peak
-                peak[1][k] = system.peak_metres
-                peak[2][k] = system.snapped
-            anchor = anchors[i]
-            if anchor is not None:
-                anchor[0][k], anchor[1][k] = system.anchor
-        if on_tick is not None:
-            on_tick(k, systems)
-        if progress is not None and (k + 1) % report_every == 0:
-            progress(k + 1, n)
-        other += clock() - t0
+            for i, system in enumerate(stepping):
+                poses[i][k] = system.pose
+                peak = cells[i]
+                if peak is not None:
+                    peak[0][k] = system.peak
+                    peak[1][k] = system.peak_metres
+                    peak[2][k] = system.snapped
+                anchor = anchors[i]
+                if anchor is not None:
+                    anchor[0][k], anchor[1][k] = system.anchor
+            if on_tick is not None:
+                on_tick(k, systems)
+            if progress is not None and (k + 1) % report_every == 0:
+                progress(k + 1, n)
+            other += clock() - t0
     if finalize:
         for i, system in enumerate(stepping):
             if hasattr(system, "finalize"):
