@@ -21,7 +21,7 @@ import copy
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -54,8 +54,7 @@ def _input_columns() -> Growable:
     )
 
 
-@dataclass(frozen=True)
-class Output:
+class Output(NamedTuple):
     """What the front end hands the experience map for one tick: the yaw rate with the bias found
     so far taken off, the pose-cell peak after the tick and whether it snapped."""
 

@@ -102,9 +102,10 @@ class RatSLAM:
                 + (" with other inputs" if front.tick == self._tick + 1 else "")
                 + ": systems sharing a front end must take the same ticks"
             )
-        for adoption in front.adoptions[self._adoptions :]:
-            self._adopt(adoption)
-        self._adoptions = len(front.adoptions)
+        if len(front.adoptions) > self._adoptions:
+            for adoption in front.adoptions[self._adoptions :]:
+                self._adopt(adoption)
+            self._adoptions = len(front.adoptions)
         self._map_step(self._tick, dt, v_trans, scene_id, out.v_rot, out.peak, out.snapped)
 
     def _map_step(
