@@ -8,7 +8,9 @@ recording watches, each variant's RatSLAM and pose graph, step together in one j
 variants' recorders; when the jobs run in parallel, the RatSLAMs run beside them (e.g. as
 published) are jobs of their own, so that the cores share the work system by system rather than
 variant by variant. A stream from the camera is not split: rendering and matching it again would
-cost more than its systems. Each variant's run directory is then written from its systems' traces
+cost more than its systems. Within a job, RatSLAMs configured alike in their front end (the
+yaw-rate search, view cells and pose cells: variants that differ only in the map) compute it once
+(:func:`harness.run.stream.step_stream`). Each variant's run directory is then written from its systems' traces
 (:func:`harness.figures.stream_run.finish_stream`). Every system is deterministic and independent of those
 stepped beside it, so the output is the same however the jobs are split or scheduled, bit for bit
 (timings aside).
