@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import math
+import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
@@ -38,7 +39,7 @@ if TYPE_CHECKING:
 
 def front_end_key(config: RatSLAMConfig) -> tuple:
     """The configuration sections the front end reads: systems with equal keys can share one."""
-    return (config.pose_cells, config.local_view, config.yaw_bias, config.view)
+    return (config.pose_cells, config.local_view, config.yaw_bias)
 
 
 def _input_columns() -> Growable:
@@ -108,6 +109,8 @@ class FrontEnd:
         self._reset_network()
         self.inputs: tuple | None = None  # the latest tick's, as given to :meth:`advance`
         self.output: Output | None = None  # and what it gave
+        self.seconds = 0.0
+        """Wall time of the latest :meth:`advance` (a rebuild's replay included)."""
 
     def _reset_network(self) -> None:
         """Fresh pose cells and view cells at tick 0."""
@@ -120,6 +123,7 @@ class FrontEnd:
         """Take the next tick (inputs checked by the caller): the search first (an adopted bias is
         recorded in :attr:`adoptions`, after the replay of a rebuild), then the tick through the
         view cells and pose cells with the bias found so far taken off the yaw rate."""
+        t0 = time.perf_counter()
         self.inputs = (dt, v_trans, v_rot, scene_id, view_rotation)
         self.replay = None
         adopted = self.yaw_bias.adopt(dt, v_trans, v_rot, scene_id)
@@ -132,6 +136,7 @@ class FrontEnd:
         if self.history is not None:
             self.history.append(dt=dt, v_trans=v_trans, v_rot=v_rot, scene=scene_id, rotation=view_rotation)
         self.output = self._step(dt, v_trans, unbiased, scene_id, view_rotation)
+        self.seconds = time.perf_counter() - t0
         return self.output
 
     def _step(self, dt: float, v_trans: float, v_rot: float, scene_id: int, view_rotation: float) -> Output:
@@ -179,24 +184,34 @@ class FrontEnd:
         self.tick, self.snapped = tick, snapped_now
 
 
+def _same_state(a: FrontEnd, b: FrontEnd) -> bool:
+    """Whether two front ends hold the same arrays (both fresh, or set alike before stepping)."""
+    x, y = a.get_state(), b.get_state()
+    return x.keys() == y.keys() and all(np.array_equal(x[k], y[k]) for k in x)
+
+
 @contextlib.contextmanager
-def shared_front_ends(systems: Iterable[RatSLAM]) -> Iterator[int]:
-    """While the block runs, the systems that have not stepped yet and whose configurations agree
-    on the front end (:func:`front_end_key`) share one; they must then step the same ticks. Yields
-    how many systems read another's front end. On leaving, each gets a copy of its own back, so
-    that it can be stepped on alone."""
-    leaders: dict[tuple, RatSLAM] = {}
+def shared_front_ends(systems: Iterable[RatSLAM]) -> Iterator[list[RatSLAM]]:
+    """While the block runs, the systems that have not stepped yet, whose configurations agree on
+    the front end (:func:`front_end_key`) and whose front ends hold the same state share one; they
+    must then step the same ticks. Yields the systems that read another's front end. On leaving,
+    each of those gets a copy of its own back, so that it can be stepped on alone."""
+    leaders: dict[tuple, list[RatSLAM]] = {}
     followers = []
     for system in systems:
         if system.tick != 0:
             continue
-        key = front_end_key(system.config)
-        leader = leaders.setdefault(key, system)
-        if leader is not system:
+        group = leaders.setdefault(front_end_key(system.config), [])
+        leader = next((s for s in group if _same_state(s.front_end, system.front_end)), None)
+        if leader is None:
+            group.append(system)
+        elif leader is not system:
             system.front_end = leader.front_end
             followers.append(system)
     try:
-        yield len(followers)
+        yield followers
     finally:
         for system in followers:
-            system.front_end = copy.deepcopy(system.front_end)
+            own = copy.deepcopy(system.front_end)
+            own.config = own.yaw_bias.config = own.pose_cells.config = own.local_view.config = system.config
+            system.front_end = own
