@@ -66,12 +66,11 @@ class Output(NamedTuple):
 
 @dataclass(frozen=True)
 class Adoption:
-    """The search adopted a yaw-rate bias at step ``tick``: ``change`` rad/s more than before,
-    ``settle_map`` whether the map is to be solved to its fixed point (a change that turns it by
-    a lot over its span), ``rebuilt`` whether the front end replayed the ticks before it
-    (``yaw_bias.rebuild``; the replay is :attr:`FrontEnd.replay` during that tick)."""
+    """The search adopted a yaw-rate bias: ``change`` rad/s more than before, ``settle_map``
+    whether the map is to be solved to its fixed point (a change that turns it by a lot over its
+    span), ``rebuilt`` whether the front end replayed the ticks before it (``yaw_bias.rebuild``;
+    the replay is :attr:`FrontEnd.replay` during that tick)."""
 
-    tick: int
     change: float
     settle_map: bool
     rebuilt: bool
@@ -79,13 +78,11 @@ class Adoption:
 
 @dataclass(frozen=True)
 class Rebuild:
-    """The front end's replay of ticks ``0 .. n - 1`` after an adopted bias: each tick's inputs and
-    :class:`Output`, for the experience maps to replay from."""
+    """The front end's replay of ticks ``0 .. n - 1`` after an adopted bias: each tick's
+    :class:`Output`, for the experience maps to replay from (with the first ``n`` ticks of
+    :attr:`FrontEnd.history`, the inputs)."""
 
-    dt: np.ndarray
-    v_trans: np.ndarray
-    scene: np.ndarray
-    v_rot: np.ndarray
+    v_rot: np.ndarray  # (n,)
     peak: np.ndarray  # (n, 3)
     snapped: np.ndarray  # (n,) bool
 
@@ -131,7 +128,7 @@ class FrontEnd:
             change, settle_map = adopted
             if self.history is not None:
                 self.replay = self._rebuild(self.yaw_bias.bias)
-            self.adoptions.append(Adoption(self.tick, change, settle_map, self.replay is not None))
+            self.adoptions.append(Adoption(change, settle_map, self.replay is not None))
         unbiased = v_rot - self.yaw_bias.bias
         if self.history is not None:
             self.history.append(dt=dt, v_trans=v_trans, v_rot=v_rot, scene=scene_id, rotation=view_rotation)
@@ -164,7 +161,7 @@ class FrontEnd:
         for k, (dt, v, w, scene, rotation) in enumerate(rows):
             out = self._step(dt, v, w - bias, scene, rotation)
             rates[k], peaks[k], snaps[k] = out.v_rot, out.peak, out.snapped
-        return Rebuild(h.view("dt").copy(), h.view("v_trans").copy(), h.view("scene").copy(), rates, peaks, snaps)
+        return Rebuild(rates, peaks, snaps)
 
     # ------------------------------------------------------------------ persistence
     def get_state(self) -> dict[str, np.ndarray]:

@@ -157,11 +157,10 @@ class RatSLAM:
         before = self._placed()
         self._reset_map()
         self._anchors = _anchor_columns()
-        columns = (
-            *(c.tolist() for c in (replay.dt, replay.v_trans, replay.scene, replay.v_rot)),
-            replay.peak,
-            replay.snapped.tolist(),
-        )
+        h, n = self.front_end.history, len(replay.v_rot)
+        assert h is not None
+        inputs = (h.view(k)[:n].tolist() for k in ("dt", "v_trans", "scene"))
+        columns = (*inputs, replay.v_rot.tolist(), replay.peak, replay.snapped.tolist())
         for k, (dt, v, scene, w, peak, snapped) in enumerate(zip(*columns)):
             self._map_step(k, dt, v, scene, w, peak, snapped)
         em = self.experience_map
