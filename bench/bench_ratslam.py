@@ -3,8 +3,9 @@ same run.
 
 Run:  python bench/bench_ratslam.py [--reference DIR] [--repeats N] [--streams a,b,...]
 
-For each stream of ``bench/streams.py`` (always whole: no prefix) the script writes the stream's
-odometry and scene numbers to a file and times ``RatSLAM.step`` with the default configuration
+For each stream of ``bench/streams.py`` (always whole: no prefix; the simulator's, real odometry
+and logs from an independent generator) the script writes the stream's odometry and scene numbers
+to a file and times ``RatSLAM.step`` with the default configuration
 (on the stream's grid) over every tick, in a subprocess per run (``bench/step_timer.py``): this
 working copy, and, if ``--reference DIR`` is given (a checkout of another version with its own
 virtual environment in ``DIR/.venv``), that version on the same file, the two alternating. It
@@ -111,7 +112,7 @@ def main() -> None:
         ref_cache = Path(tempfile.gettempdir()) / "bench_ratslam_numba" / key
     print("RatSLAM.step, default configuration, every tick of each whole stream (steps/s)")
     quarters = " ".join(f"{q:>6s}" for q in ("Q1", "Q2", "Q3", "Q4"))
-    header = f"  {'stream':16s} {'grid':>9s} {'ticks':>6s} | {quarters} | {'whole':>6s}"
+    header = f"  {'stream':18s} {'grid':>9s} {'ticks':>6s} | {quarters} | {'whole':>6s}"
     if ref_python:
         header += f" | {'reference':>9s} {'ratio':>6s}  same map"
     print(header)
@@ -130,7 +131,7 @@ def main() -> None:
         rec = best(mine)
         per_q, whole = rates(rec)
         grid = "x".join(str(v) for v in GRIDS.get(name, DEFAULT_GRID))
-        line = f"  {name:16s} {grid:>9s} {ticks:6d} | " + " ".join(f"{r:6.0f}" for r in per_q) + f" | {whole:6.0f}"
+        line = f"  {name:18s} {grid:>9s} {ticks:6d} | " + " ".join(f"{r:6.0f}" for r in per_q) + f" | {whole:6.0f}"
         results[name] = {"this": rec, "rate": whole, "quarters": per_q}
         if ref_python:
             rrec = best(ref)

@@ -19,6 +19,10 @@ benchmarks), always run whole. All are deterministic (fixed seeds).
 * ``plaza2_hard``: Plaza 2 with 3 m scene cells, 2% false positives and 15% aliasing.
 * ``office_floor``: the Fig 4 office floor (look-alike rooms B and C), 2.5 h, on Fig 4's
   40 x 40 x 36 pose-cell grid (:data:`GRIDS`).
+* ``independent_square``, ``independent_eight``, ``independent_lanes``: logs from pure kinematics,
+  independent of the simulator (``bench/independent_logs.py``, seed 0, at 10 Hz): a 15-min square
+  loop with a 1.5 deg/s gyro bias, a 12-min figure eight with 1 deg/s, 20 min of lanes with
+  -1.2 deg/s; 1 % false positives, 10 % aliased cells and 5 % blank ticks each.
 
 Every other stream runs on the default grid (60 x 60 x 36).
 """
@@ -27,6 +31,8 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+
+from independent_logs import log_spec, make_log
 
 from worlds import ObservationLog, load_world, simulate
 from worlds.real_data import PLAZA_SCENES, load_plaza
@@ -57,6 +63,10 @@ def _plaza2_hard() -> ObservationLog:
     return load_plaza("plaza2", scenes=dataclasses.replace(PLAZA_SCENES, cell_size=3.0, alias_rate=0.15), fp_rate=0.02)
 
 
+def _independent(name: str) -> ObservationLog:
+    return ObservationLog(**make_log(log_spec(name, 0)))
+
+
 STREAMS: dict[str, Callable[[], ObservationLog]] = {
     "small_loop": lambda: simulate("small_loop", duration=900.0, seed=0),
     "small_loop_hard": _small_loop_hard,
@@ -66,6 +76,9 @@ STREAMS: dict[str, Callable[[], ObservationLog]] = {
     "plaza2": lambda: load_plaza("plaza2"),
     "plaza2_hard": _plaza2_hard,
     "office_floor": lambda: simulate("office_floor", duration=9000.0, seed=0),
+    "independent_square": lambda: _independent("square"),
+    "independent_eight": lambda: _independent("eight"),
+    "independent_lanes": lambda: _independent("lanes"),
 }
 
 GRIDS: dict[str, tuple[int, int, int]] = {"office_floor": (40, 40, 36)}
