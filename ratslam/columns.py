@@ -1,4 +1,5 @@
-"""Column arrays with amortised O(1) append (the experience map's experiences and links)."""
+"""Column arrays with amortised O(1) append (the experience map's experiences and links, a
+system's kept ticks and anchors)."""
 
 from __future__ import annotations
 
@@ -42,3 +43,11 @@ class Growable:
         for k, (shape, dt) in self._spec.items():
             self.cols[k] = np.zeros((self._cap,) + shape, dtype=dt)
             self.cols[k][:n] = arrays[k]
+
+    def state(self, prefix: str) -> dict[str, np.ndarray]:
+        """A copy of the filled rows of every column, keyed ``prefix + name`` (for a saved state)."""
+        return {prefix + k: self.view(k).copy() for k in self.cols}
+
+    def load_state(self, s: dict[str, np.ndarray], prefix: str) -> None:
+        """Restore the columns from :meth:`state`'s arrays in ``s``."""
+        self.load({k: s[prefix + k] for k in self.cols})

@@ -358,8 +358,7 @@ class ExperienceMap(MapLayers):
     # ------------------------------------------------------------------ state i/o
     def get_state(self) -> dict:
         """Arrays that fully describe the map and its re-entry policy (for save/load)."""
-        s = {f"em_{k}": self._exp.view(k).copy() for k in self._exp.cols}
-        s.update({f"lk_{k}": self._link.view(k).copy() for k in self._link.cols})
+        s = {**self._exp.state("em_"), **self._link.state("lk_")}
         s["em_current"] = np.array([self.current], dtype=np.int64)
         s["em_acc"] = self._acc.copy()
         s.update(self.reentry.get_state())
@@ -367,8 +366,8 @@ class ExperienceMap(MapLayers):
 
     def set_state(self, s: dict) -> None:
         """Restore a state produced by :meth:`get_state`."""
-        self._exp.load({k: s[f"em_{k}"] for k in self._exp.cols})
-        self._link.load({k: s[f"lk_{k}"] for k in self._link.cols})
+        self._exp.load_state(s, "em_")
+        self._link.load_state(s, "lk_")
         self.current = int(s["em_current"][0])
         self._acc = np.asarray(s["em_acc"], dtype=float).copy()
         self.reentry.set_state(s)

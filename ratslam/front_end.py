@@ -168,7 +168,7 @@ class FrontEnd:
         """The pose cells', view cells' and search's arrays and the ticks kept."""
         arrays = {**self.pose_cells.get_state(), **self.local_view.get_state(), **self.yaw_bias.get_state()}
         if self.history is not None:
-            arrays.update({"rs_history_" + k: self.history.view(k).copy() for k in self.history.cols})
+            arrays.update(self.history.state("rs_history_"))
         return arrays
 
     def set_state(self, s: dict[str, np.ndarray], tick: int, snapped_now: bool) -> None:
@@ -177,7 +177,7 @@ class FrontEnd:
         self.local_view.set_state(s)
         self.yaw_bias.set_state(s)
         if self.history is not None:
-            self.history.load({k: s["rs_history_" + k] for k in self.history.cols})
+            self.history.load_state(s, "rs_history_")
         self.tick, self.snapped = tick, snapped_now
 
 

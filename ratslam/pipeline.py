@@ -312,7 +312,7 @@ class RatSLAM:
         arrays["rs_tick"] = np.array([self._tick, int(self.snapped), *self._view_gate.get_state()], dtype=np.int64)
         arrays["rs_rebuilds"] = np.array([self.rebuilds], dtype=np.int64)
         if self._anchors is not None:
-            arrays.update({"rs_anchors_" + k: self._anchors.view(k).copy() for k in self._anchors.cols})
+            arrays.update(self._anchors.state("rs_anchors_"))
         meta = {"format": _FORMAT, "config": dataclasses.asdict(self._config)}
         arrays["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         with open(Path(path), "wb") as fh:
@@ -340,7 +340,7 @@ class RatSLAM:
         obj._view_gate.set_state(s["rs_tick"][2:])
         obj.rebuilds = int(s["rs_rebuilds"][0]) if "rs_rebuilds" in s else 0
         if obj._anchors is not None:
-            obj._anchors.load({k: s["rs_anchors_" + k] for k in obj._anchors.cols})
+            obj._anchors.load_state(s, "rs_anchors_")
         return obj
 
 
