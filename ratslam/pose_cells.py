@@ -28,6 +28,7 @@ import numpy as np
 from . import pose_cell_kernels as K
 from . import pose_cell_split
 from .config import RatSLAMConfig
+from .heap import retain_freed_memory
 
 
 def gaussian_kernel(sigma: float, radius: int) -> np.ndarray:
@@ -58,6 +59,7 @@ class PoseCells:
     """
 
     def __init__(self, config: RatSLAMConfig, start_cell: tuple[int, int, int] | None = None):
+        retain_freed_memory()  # every step makes and drops arrays of up to hundreds of kB
         self.config = config
         pc = config.pose_cells
         self._n = np.array([pc.n_theta, pc.nx, pc.ny], dtype=np.int64)  # (θ, x, y)
