@@ -4,10 +4,11 @@ Each tick the pose cells' kernels make and drop arrays of tens to hundreds of ki
 linear operator applied to a box of activity). glibc's allocator, left to its defaults, maps an
 array above its threshold (128 KiB at first) straight from the kernel and unmaps it when freed,
 and it gives the top of the heap back to the kernel as soon as more than twice that threshold
-lies free there; the next tick's arrays then touch fresh pages, one page fault each. :func:`retain_freed_memory` raises both bounds, once per
-process: arrays below ``mmap_threshold`` come from the heap, and ``top_pad`` bytes stay at its top
-when it shrinks. The values computed are unchanged (the same operations on the same numbers);
-only where the arrays live and how often the kernel is asked for pages.
+lies free there; the next tick's arrays then touch fresh pages, one page fault each.
+:func:`retain_freed_memory` raises both bounds, once per process: arrays below ``mmap_threshold``
+come from the heap, and ``top_pad`` bytes stay at its top when it shrinks. The values computed are
+unchanged (the same operations on the same numbers); only where the arrays live and how often the
+kernel is asked for pages.
 
 It changes nothing where the C library is not glibc, or where the user tuned glibc's allocator
 (``MALLOC_TOP_PAD_``, ``MALLOC_MMAP_THRESHOLD_``, ``MALLOC_TRIM_THRESHOLD_``, ``MALLOC_MMAP_MAX_``
