@@ -13,9 +13,11 @@ The network wraps on every axis. One iteration (``step``) is, in order:
 After global inhibition nearly every cell is exactly zero, so the network stores only
 wrap-aware bounding boxes around the non-zero cells (one per packet; boxes close enough to
 interact are merged before each iteration) and applies each linear operator along one axis at a
-time (all kernels are separable Gaussians), compiled in :mod:`ratslam.pose_cell_kernels`. The
-full grid is materialised only when asked
-for (:attr:`PoseCells.activity`). The result equals the same update run over the whole grid
+time (all kernels are separable Gaussians), compiled in :mod:`ratslam.pose_cell_kernels`; a box
+holding packets far apart is stepped packet group by packet group (:mod:`ratslam.pose_cell_split`)
+and a large box whose heading layers are mostly empty layer by layer
+(:mod:`ratslam.pose_cell_layers`), both bit for bit the whole box's step. The full grid is
+materialised only when asked for (:attr:`PoseCells.activity`). The result equals the same update run over the whole grid
 (:mod:`ratslam.pose_cells_reference`) to rounding (tested).
 
 Internally the local array is laid out (θ', x', y'); public coordinates are (x', y', θ').
@@ -26,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import pose_cell_kernels as K
-from . import pose_cell_split
+from . import pose_cell_layers, pose_cell_split
 from .config import RatSLAMConfig
 from .heap import retain_freed_memory
 
@@ -47,6 +49,12 @@ def axis_kernels(config: RatSLAMConfig) -> tuple[tuple, tuple]:
         (gaussian_kernel(pc.excite_sigma_theta_cells, pc.excite_radius_cells), k_exc, k_exc),
         (gaussian_kernel(pc.inhibit_sigma_theta_cells, pc.inhibit_radius_cells), k_inh, k_inh),
     )
+
+
+# a box of this many cells or more whose layers' rectangles cover at most this fraction of it is
+# stepped layer by layer (:mod:`ratslam.pose_cell_layers`)
+LAYERED_MIN_CELLS = 20_000
+LAYERED_MAX_COVER = 0.3
 
 
 class PoseCells:
@@ -249,16 +257,13 @@ class PoseCells:
         network = self._network
         if len(self._boxes) == 1:  # the usual case: the steps below in one compiled call
             start, act = self._boxes[0]
-            alive, start, act, peak = pose_cell_split.step_one_box(
-                act,
-                start,
-                *network,
-                self._cos,
-                self._sin,
-                v_trans_dt * cfg.trans_gain / cfg.cell_size_m,
-                v_rot_dt / cfg.theta_cell_rad,
-                cfg.peak_radius_cells,
-            )
+            odometry = (v_trans_dt * cfg.trans_gain / cfg.cell_size_m, v_rot_dt / cfg.theta_cell_rad)
+            pi_and_peak = (self._cos, self._sin, *odometry, cfg.peak_radius_cells)
+            rect = pose_cell_layers.sparse_windows(act, LAYERED_MAX_COVER) if act.size >= LAYERED_MIN_CELLS else None
+            if rect is not None and len(rect):  # a large box whose layers are mostly empty
+                alive, start, act, peak = pose_cell_layers.step_one_box(act, rect, start, *network, *pi_and_peak)
+            else:
+                alive, start, act, peak = pose_cell_split.step_one_box(act, start, *network, *pi_and_peak)
             if not alive:
                 raise RuntimeError("pose-cell activity vanished: global_inhibition too strong for the packet")
             self._boxes = [[start, act]]
@@ -318,7 +323,7 @@ class PoseCells:
 
 
 # ---------------------------------------------------------------------- compiling the kernels
-KERNEL_PARTS = ("iteration", "boxes")
+KERNEL_PARTS = ("iteration", "boxes", "layers")
 
 
 def compile_kernels(config: RatSLAMConfig, part: str) -> None:
@@ -329,7 +334,8 @@ def compile_kernels(config: RatSLAMConfig, part: str) -> None:
     calls besides the inhibition (the excitation, the groups of a box, path integration, the
     peak), which the other part then loads from the cache while it is still compiling the
     inhibition, then the rest (boxes from injected cells, merging, several boxes' peak, the
-    active cells)."""
+    active cells). ``"layers"``: a large box's step, layer by layer
+    (:mod:`ratslam.pose_cell_layers`)."""
     cells = PoseCells(config)
     start, act = cells._boxes[0]
     n, te0, te1, te2, ti0, ti1, ti2, off_spread, off_within, _, weight, global_inh = cells._network
@@ -347,5 +353,8 @@ def compile_kernels(config: RatSLAMConfig, part: str) -> None:
         cells.path_integrate(0.1, 0.05)
         cells._update_peak()
         cells.cells_at_least(0.5)
+    elif part == "layers":  # a large box's step, layer by layer
+        rect = pose_cell_layers.sparse_windows(act, LAYERED_MAX_COVER)
+        pose_cell_layers.step_one_box(act, rect, start, *cells._network, cells._cos, cells._sin, 0.1, 0.05, 1)
     else:
         raise ValueError(f"unknown kernel part {part!r} (known: {', '.join(KERNEL_PARTS)})")

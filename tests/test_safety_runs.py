@@ -294,15 +294,23 @@ def test_former_tracebacks_are_one_line(tmp_path, args, expected):
 # ------------------------------------------------------------------------ compile once
 def test_warm_kernels_compiles_every_kernel_a_run_uses():
     """After :func:`harness.run.workers.warm_kernels` in this process (what a figure does before it
-    forks its workers), a run compiles nothing more: the workers inherit every kernel."""
+    forks its workers), a run compiles nothing more: the workers inherit every kernel (the run here
+    steps every box it can layer by layer, so that both forms of a box's step are used)."""
     code = """
 import numba.core.registry as reg
-import ratslam.map_kernels as M, ratslam.pose_cell_kernels as K
+import ratslam.pose_cells as P
+from ratslam import map_kernels, pose_cell_kernels, pose_cell_layers, pose_cell_split
 from harness.run.workers import warm_kernels
 def sigs():
-    return {n: len(f.signatures) for m in (K, M) for n, f in vars(m).items() if isinstance(f, reg.CPUDispatcher)}
+    return {
+        f"{m.__name__}.{n}": len(f.signatures)
+        for m in (pose_cell_kernels, pose_cell_split, pose_cell_layers, map_kernels)
+        for n, f in vars(m).items()
+        if isinstance(f, reg.CPUDispatcher)
+    }
 warm_kernels()
 before = sigs()
+P.LAYERED_MIN_CELLS, P.LAYERED_MAX_COVER = 0, 1.0  # every one-box step layer by layer
 from baselines import PoseGraphConfig
 from ratslam import RatSLAMConfig
 from harness.run.runner import run_stream

@@ -164,9 +164,10 @@ def warm_kernels() -> None:
     """Compile RatSLAM's numba kernels in this process (or load them from numba's disk cache):
     forked workers inherit them and spawned ones load the cache, instead of each compiling them
     again (a first compile takes tens of seconds per process on a loaded machine). The pose cells'
-    kernels compile in two parts side by side, one in a forked helper that leaves them in the cache
-    (:func:`ratslam.pose_cells.compile_kernels`; the helper then compiles the view cells' and the
-    experience map's, :func:`ratslam.pipeline.compile_map_kernels`); then a 4 m square driven
+    kernels compile in three parts side by side, two in forked helpers that leave them in the cache
+    (:func:`ratslam.pose_cells.compile_kernels`; the "boxes" helper then compiles the view cells'
+    and the experience map's, :func:`ratslam.pipeline.compile_map_kernels`; this process loads
+    the "layers" part from the cache when its own part is done); then a 4 m square driven
     twice with a scene per side: path integration, view injection, experience creation, loop
     closure and map correction."""
     from ratslam import PoseCellConfig, RatSLAM, RatSLAMConfig
@@ -174,15 +175,22 @@ def warm_kernels() -> None:
 
     config = RatSLAMConfig(pose_cells=PoseCellConfig(nx=20, ny=20, n_theta=36))
     with sigint_blocked():
-        helper = fork_context().Process(target=_compile_kernels, args=(os.getpid(), config, "boxes"), daemon=True)
-        helper.start()
+        helpers = [
+            fork_context().Process(target=_compile_kernels, args=(os.getpid(), config, part), daemon=True)
+            for part in ("boxes", "layers")
+        ]
+        for helper in helpers:
+            helper.start()
     try:
         compile_kernels(config, "iteration")
-        helper.join()
-    finally:
-        if helper.is_alive():  # interrupted: the helper goes too
-            helper.terminate()
+        for helper in helpers:
             helper.join()
+        compile_kernels(config, "layers")  # loaded from the cache the helper left
+    finally:
+        for helper in helpers:
+            if helper.is_alive():  # interrupted: the helpers go too
+                helper.terminate()
+                helper.join()
     cells = PoseCells(config)  # a packet injected apart (a new box), then near it (boxes merged)
     for x in (10, 4, 2):
         cells.inject(np.array([[x, 0, 0]]), 0.5)
