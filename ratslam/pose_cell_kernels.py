@@ -358,6 +358,19 @@ def network_box(
 
 
 @njit(cache=True)
+def heading_shifts(t_start, lt, n_theta, cos_t, sin_t, dist):
+    """Shifts (x', y' cells) of ``lt`` heading layers from global layer ``t_start``, each moved
+    ``dist`` cells along its own heading."""
+    sx = np.empty(lt)
+    sy = np.empty(lt)
+    for t in range(lt):
+        g = (t_start + t) % n_theta
+        sx[t] = dist * cos_t[g]
+        sy[t] = dist * sin_t[g]
+    return sx, sy
+
+
+@njit(cache=True)
 def path_integrate_box(act, start, n, cos_t, sin_t, dist, rot):
     """Path integration of one box: each heading layer θ' translated by ``dist`` cells along its
     heading (``cos_t``/``sin_t`` per global heading cell), then all layers rotated by ``rot``
@@ -365,12 +378,7 @@ def path_integrate_box(act, start, n, cos_t, sin_t, dist, rot):
     new_start = start.copy()
     lt = act.shape[0]
     if dist != 0.0:
-        sx = np.empty(lt)
-        sy = np.empty(lt)
-        for t in range(lt):
-            g = (start[0] + t) % n[0]
-            sx[t] = dist * cos_t[g]
-            sy[t] = dist * sin_t[g]
+        sx, sy = heading_shifts(start[0], lt, n[0], cos_t, sin_t, dist)
         off, kw, lo, growth = shift_taps(sx)
         act = op_mid(act, off, kw, min(act.shape[1] + growth, n[1]), n[1])
         new_start[1] = (start[1] + lo) % n[1]
@@ -427,6 +435,13 @@ def peak_of_box(act, start, n, rad):
     """The peak (x', y', θ') of a network held in one box: its strongest cell refined by
     :func:`refine_peak` over the neighbourhood sums (the steps of ``PoseCells._update_peak``)."""
     _, idx = strongest_cell(act)
+    return peak_at(act, start, idx, n, rad)
+
+
+@njit(cache=True)
+def peak_at(act, start, idx, n, rad):
+    """The peak (x', y', θ') of a box whose strongest cell is at box-relative ``idx``: the cell
+    refined by :func:`refine_peak` over the neighbourhood sums."""
     cg = np.empty(3, dtype=np.int64)
     rel = np.empty(3, dtype=np.int64)
     for a in range(3):

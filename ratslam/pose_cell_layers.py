@@ -522,12 +522,7 @@ def step_one_box(
     # 5. path integration: each layer along its heading, then all layers rotated
     new_start = start.copy()
     if dist != 0.0:
-        sx = np.empty(shape[0])
-        sy = np.empty(shape[0])
-        for t in range(shape[0]):
-            g = (start[0] + t) % n[0]
-            sx[t] = dist * cos_t[g]
-            sy[t] = dist * sin_t[g]
+        sx, sy = K.heading_shifts(start[0], shape[0], n[0], cos_t, sin_t, dist)
         off, kw, lo, growth = K.shift_taps(sx)
         lout = min(shape[1] + growth, n[1])
         vals, pos, rect = _axis_op(vals, pos, rect, off, kw, shape[1], lout, n[1], 1)
@@ -549,7 +544,7 @@ def step_one_box(
     act = to_box(vals, pos, rect, shape)
     # the peak: the first strongest cell in the box's order, refined over its neighbourhood
     best = -1.0
-    cg = np.zeros(3, dtype=np.int64)
+    idx = np.zeros(3, dtype=np.int64)
     for t in range(shape[0]):
         h, w = _size(rect, t)
         for x in range(h):
@@ -557,12 +552,5 @@ def step_one_box(
             for y in range(w):
                 if row[y] > best:
                     best = row[y]
-                    cg[0], cg[1], cg[2] = t, rect[t, 0] + x, rect[t, 2] + y
-    rel = np.empty(3, dtype=np.int64)
-    for a in range(3):
-        cg[a] = (new_start[a] + cg[a]) % n[a]
-        rel[a] = (cg[a] - peak_radius - new_start[a]) % n[a]
-    p = K.refine_peak(cg, K.neighbourhood_sums(act, rel, peak_radius, n), peak_radius, n)
-    peak = np.empty(3)
-    peak[0], peak[1], peak[2] = p[1], p[2], p[0]
-    return True, new_start, act, peak
+                    idx[0], idx[1], idx[2] = t, rect[t, 0] + x, rect[t, 2] + y
+    return True, new_start, act, K.peak_at(act, new_start, idx, n, peak_radius)

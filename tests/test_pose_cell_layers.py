@@ -13,7 +13,7 @@ from ratslam import pose_cell_split as S
 from ratslam.config import PoseCellConfig
 from ratslam.pose_cells import PoseCells
 
-from .test_pose_cell_split import _blobs
+from .test_pose_cell_split import _random_box
 
 
 def _same(want, got) -> bool:
@@ -42,9 +42,7 @@ def test_layered_step_equals_whole_box_step(grid, weight):
     rng = np.random.default_rng(sum(grid))
     survived = 0
     for trial in range(250):
-        shape = tuple(int(rng.integers(1, s + 1)) for s in n)
-        start = np.array([int(rng.integers(0, s)) for s in n], dtype=np.int64)
-        act = _blobs(rng, shape, int(rng.integers(1, 6)))
+        start, act = _random_box(rng, n, 5)
         if not act.any():
             continue
         act /= act.sum()

@@ -27,6 +27,14 @@ def _blobs(rng, shape, count):
     return act
 
 
+def _random_box(rng, n, most_blobs):
+    """A box of random shape and start on a ring of ``n`` (θ', x', y') holding 1 to
+    ``most_blobs`` packets: (start, activity)."""
+    shape = tuple(int(rng.integers(1, s + 1)) for s in n)
+    start = np.array([int(rng.integers(0, s)) for s in n], dtype=np.int64)
+    return start, _blobs(rng, shape, int(rng.integers(1, most_blobs + 1)))
+
+
 @pytest.mark.parametrize("grid, min_split", [((60, 60, 36), 30), ((16, 14, 12), 0), ((40, 40, 36), 30)])
 def test_group_iteration_equals_whole_box(grid, min_split):
     """Random boxes of packets (on a small grid every box is near the whole ring: no cuts)."""
@@ -37,9 +45,7 @@ def test_group_iteration_equals_whole_box(grid, min_split):
     rng = np.random.default_rng(sum(grid))
     split = 0
     for trial in range(300):
-        shape = tuple(int(rng.integers(1, s + 1)) for s in n)
-        start = np.array([int(rng.integers(0, s)) for s in n], dtype=np.int64)
-        act = _blobs(rng, shape, int(rng.integers(1, 5)))
+        start, act = _random_box(rng, n, 4)
         args = _args(config, act, start)
         want = K.network_box(*args)
         got = S.network_box(*args)
