@@ -1,7 +1,7 @@
 """Benchmark: RatSLAM.step over every tick of whole runs, beside a reference version timed in the
 same run.
 
-Run:  python bench/bench_ratslam.py [--reference DIR] [--repeats N] [--streams a,b,...]
+Run:  python bench/bench_ratslam.py [--reference DIR] [--repeats N] [--streams a,b,...] [--dense]
 
 For each stream of ``bench/streams.py`` (always whole: no prefix; the simulator's, real odometry
 and logs from an independent generator) the script writes the stream's odometry and scene numbers
@@ -12,6 +12,9 @@ virtual environment in ``DIR/.venv``), that version on the same file, the two al
 prints steps/s per quarter of each run (so growth with the map and the packets shows), the
 whole run's rate, the ratio to the reference, the median and the worst stream, and whether both
 versions ended with the same map (a digest of the experience poses and the pose-cell peak).
+With ``--dense`` it also times, once per stream, this working copy with its pose cells on the full
+grid (``ratslam.pose_cells_reference``: the dense reference, every cell every tick) and prints the
+ratio to it (slow: about 4 ms a tick on the 60 x 60 x 36 grid).
 
 Timings are noisy on a shared machine: with ``--repeats N`` each version runs each stream N
 times and each quarter keeps its best time; the ratios (measured minutes apart) are the figures
@@ -56,9 +59,10 @@ def write_stream(name: str, path: Path) -> int:
     return len(log.dt)
 
 
-def time_stream(python: str, root: Path | None, stream: Path, cache: Path | None) -> dict:
+def time_stream(python: str, root: Path | None, stream: Path, cache: Path | None, dense: bool = False) -> dict:
     """Run ``step_timer.py`` on ``stream`` with interpreter ``python`` and, if ``root`` is given,
-    the package from ``root`` (its kernel cache in ``cache``). Returns the timer's record."""
+    the package from ``root`` (its kernel cache in ``cache``); ``dense``: with the full-grid pose
+    cells. Returns the timer's record."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     if root is not None:
         env["PYTHONPATH"] = str(root)
@@ -66,7 +70,11 @@ def time_stream(python: str, root: Path | None, stream: Path, cache: Path | None
     if cache is not None:
         env["NUMBA_CACHE_DIR"] = str(cache)
     out = subprocess.run(
-        [python, str(HERE / "step_timer.py"), str(stream)], env=env, capture_output=True, text=True, check=False
+        [python, str(HERE / "step_timer.py"), str(stream), *(["--dense"] if dense else [])],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
     )
     if out.returncode != 0:
         raise SystemExit(f"{stream.stem}: timer failed ({python}):\n{out.stderr.strip()}")
@@ -93,6 +101,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=1, help="runs per stream and version (best per quarter)")
     ap.add_argument("--streams", help="comma-separated stream names (default: all)")
     ap.add_argument("--json", type=Path, help="also write the records here")
+    ap.add_argument("--dense", action="store_true", help="also time the dense (full-grid) reference, once")
     args = ap.parse_args()
     names = args.streams.split(",") if args.streams else list(STREAMS)
     unknown = [s for s in names if s not in STREAMS]
@@ -115,6 +124,8 @@ def main() -> None:
     header = f"  {'stream':18s} {'grid':>9s} {'ticks':>6s} | {quarters} | {'whole':>6s}"
     if ref_python:
         header += f" | {'reference':>9s} {'ratio':>6s}  same map"
+    if args.dense:
+        header += f" | {'dense':>6s} {'ratio':>7s}"
     print(header)
     results = {}
     for name in names:
@@ -139,6 +150,10 @@ def main() -> None:
             same = "yes" if rrec["digest"] == rec["digest"] else "NO"
             line += f" | {rwhole:9.0f} {whole / rwhole:5.2f}x  {same}"
             results[name].update(reference=rrec, reference_rate=rwhole, ratio=whole / rwhole)
+        if args.dense:
+            _, dwhole = rates(time_stream(sys.executable, None, path, None, dense=True))
+            line += f" | {dwhole:6.0f} {whole / dwhole:6.1f}x"
+            results[name].update(dense_rate=dwhole, dense_ratio=whole / dwhole)
         if rec["warm_up_s"] > 2.0:
             line += f"  (kernels compiled in warm-up: {rec['warm_up_s']:.0f} s)"
         print(line, flush=True)
@@ -155,6 +170,9 @@ def main() -> None:
             f" (reference: median {statistics.median(ref_rates.values()):.0f}, worst {rworst} {ref_rates[rworst]:.0f}; "
             f"median ratio {statistics.median(r['ratio'] for r in results.values()):.2f}x)"
         )
+    if args.dense:
+        dense_median = statistics.median(float(r["dense_ratio"]) for r in results.values())
+        summary += f"; median ratio to the dense reference {dense_median:.1f}x"
     print(summary)
     if args.json:
         args.json.write_text(json.dumps(results, indent=1))

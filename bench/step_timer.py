@@ -1,6 +1,6 @@
 """Time ``RatSLAM.step`` over every tick of one whole stream (run by ``bench_ratslam.py``).
 
-Run:  python bench/step_timer.py STREAM.npz [--profile OUT.prof]
+Run:  python bench/step_timer.py STREAM.npz [--profile OUT.prof] [--dense]
 
 ``STREAM.npz`` holds ``dt``, ``v_trans``, ``v_rot``, ``scene_id`` and ``grid`` (nx, ny, n_theta).
 The script imports only ``ratslam`` and numpy, so the same file times any version of the package
@@ -8,7 +8,9 @@ The script imports only ``ratslam`` and numpy, so the same file times any versio
 system over the stream's first fifth, then steps a fresh system with the default configuration on that grid through
 every tick and prints one JSON line: the seconds of each quarter of the run, the ticks per
 quarter, the experience count at the end and a digest of the final map (the same digest from
-two versions means they made the same map on this stream).
+two versions means they made the same map on this stream). With ``--dense`` the system's pose
+cells are the full-grid reference of the same update (``ratslam.pose_cells_reference``, every cell
+every tick; equal to the boxes to rounding), the baseline the boxes are measured against.
 """
 
 from __future__ import annotations
@@ -83,7 +85,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("stream", help="stream file (.npz) written by bench_ratslam.py")
     ap.add_argument("--profile", help="write cProfile statistics of the timed run here")
+    ap.add_argument("--dense", action="store_true", help="the pose cells on the full grid (the dense reference)")
     args = ap.parse_args()
+    if args.dense:
+        import ratslam.front_end
+        from ratslam.pose_cells_reference import FullGridPoseCells
+
+        ratslam.front_end.PoseCells = FullGridPoseCells  # the front end's pose cells
     print(json.dumps(run(args.stream, args.profile)))
 
 
