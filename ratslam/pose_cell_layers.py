@@ -7,8 +7,9 @@ taken apart into its θ' layers, each stored as the rectangle (x' and y' ranges,
 holds its non-zero cells, and the step's one-axis operators (:mod:`ratslam.pose_cell_kernels`)
 run rectangle by rectangle: a layer's rectangle grows by the taps along x' and y', a θ' operator
 writes the union of the rectangles it reads. The local inhibition is evaluated only where it can
-matter, on each layer's rectangle of cells above the global inhibition (a cell at or below it ends
-at zero whatever its inhibition), and the operators before it only over what that needs. The
+matter, on the bands of rows of each layer that hold cells above the global inhibition (a cell at
+or below it ends at zero whatever its inhibition; a layer holding several packets has a band per
+packet, as a rule), and the operators before it only over what each band reads. The
 layers go back into one box after path integration.
 
 Every cell evaluated receives the same non-zero terms in the same order as in the whole-box
@@ -294,15 +295,21 @@ def _axis_op(vals, pos, rect, off, kw, length, lout, n, axis):
 # --------------------------------------------------------------------- the steps
 @njit(cache=True)
 def _above(vals, pos, rect, level, shape):
-    """Per-axis projections of the cells above ``level`` (not negative) and each layer's
-    rectangle of them."""
+    """Per-axis projections of the cells above ``level`` (not negative), and the bands holding
+    them: runs of consecutive rows of a layer with cells above, each with the y' range of those
+    cells, as rows ``(layer, x0, x1, y0, y1)`` (bands of one layer never share a row)."""
     pt = np.zeros(shape[0], dtype=np.bool_)
     px = np.zeros(shape[1], dtype=np.bool_)
     py = np.zeros(shape[2], dtype=np.uint8)
-    hot = np.zeros((shape[0], 4), dtype=np.int64)
+    rows = 0
+    for t in range(shape[0]):
+        rows += _size(rect, t)[0]
+    bands = np.zeros((rows, 5), dtype=np.int64)
+    k = 0
     for t in range(shape[0]):
         h, w = _size(rect, t)
         x0, y0 = rect[t, 0], rect[t, 2]
+        open_band = False
         for x in range(h):
             row = _row(vals, pos, rect, t, x)
             row_any = np.uint8(0)
@@ -310,16 +317,48 @@ def _above(vals, pos, rect, level, shape):
                 b = np.uint8(row[y] > level)
                 py[y0 + y] |= b
                 row_any |= b
-            if row_any:
-                pt[t] = px[x0 + x] = True
-                a = 0
-                while not row[a] > level:
-                    a += 1
-                c = w - 1
-                while not row[c] > level:
-                    c -= 1
-                _grow(hot, t, x0 + x, x0 + x + 1, y0 + a, y0 + c + 1)
-    return pt, px, py.astype(np.bool_), hot
+            if not row_any:
+                open_band = False
+                continue
+            pt[t] = px[x0 + x] = True
+            a = 0
+            while not row[a] > level:
+                a += 1
+            c = w - 1
+            while not row[c] > level:
+                c -= 1
+            if not open_band:
+                bands[k, 0], bands[k, 1], bands[k, 3], bands[k, 4] = t, x0 + x, y0 + a, y0 + c + 1
+                k += 1
+                open_band = True
+            bands[k - 1, 2] = x0 + x + 1
+            bands[k - 1, 3] = min(bands[k - 1, 3], y0 + a)
+            bands[k - 1, 4] = max(bands[k - 1, 4], y0 + c + 1)
+    return pt, px, py.astype(np.bool_), bands[:k]
+
+
+@njit(cache=True)
+def _theta_bands(vals, pos, rect, kw, runs, layer, want):
+    """A θ' operator (one set of taps) evaluated over rectangles ``want`` of output layers
+    ``layer`` (several may share a layer)."""
+    out, opos = _zeros_over(want)
+    for p in range(want.shape[0]):
+        if want[p, 0] >= want[p, 1]:
+            continue
+        o = layer[p]
+        for r in range(runs.shape[0]):  # the taps in ascending order, as in the whole box
+            i = o - runs[r, 1]
+            if i < runs[r, 2] or i >= runs[r, 3]:
+                continue
+            k = kw[0, runs[r, 0]]
+            xa, xb = max(rect[i, 0], want[p, 0]), min(rect[i, 1], want[p, 1])
+            ya, yb = max(rect[i, 2], want[p, 2]), min(rect[i, 3], want[p, 3])
+            for x in range(xa, xb):
+                d = _row(out, opos, want, p, x - want[p, 0])[ya - want[p, 2] : yb - want[p, 2]]
+                s = _row(vals, pos, rect, i, x - rect[i, 0])[ya - rect[i, 2] : yb - rect[i, 2]]
+                for q in range(yb - ya):
+                    d[q] += k * s[q]
+    return out, opos
 
 
 @njit(cache=True)
@@ -327,8 +366,8 @@ def _inhibit_clip(vals, pos, rect, shape, taps0, taps1, taps2, off_within, weigh
     """:func:`ratslam.pose_cell_kernels.inhibit_clip` on an excited box held as layers: the
     window's local start (``t0, x0, y0``) and shape, the surviving activity over it as layers
     and the projections of its non-zero cells (``qt, qx, qy``). The inhibition is evaluated on
-    each layer's rectangle of cells above the global inhibition, and the θ' and x' passes over
-    what that rectangle reads."""
+    the bands of cells above the global inhibition (:func:`_above`), and the θ' and x' passes
+    over what each band reads."""
     pt, px, py, hot = _above(vals, pos, rect, global_inh, shape)
     wshape = np.zeros(3, dtype=np.int64)
     if not pt.any():
@@ -338,11 +377,13 @@ def _inhibit_clip(vals, pos, rect, shape, taps0, taps1, taps2, off_within, weigh
     x0, nx = K._window(px, n[1])
     y0, ny = K._window(py, n[2])
     wshape[0], wshape[1], wshape[2] = nt, nx, ny
-    # the rectangles to evaluate, in the window's coordinates
-    target = np.zeros((nt, 4), dtype=np.int64)
-    for t in range(nt):
-        e = t0 + t
-        _grow(target, t, hot[e, 0] - x0, hot[e, 1] - x0, hot[e, 2] - y0, hot[e, 3] - y0)
+    # the bands to evaluate, in the window's coordinates
+    nb = hot.shape[0]
+    layer = hot[:, 0] - t0
+    target = np.empty((nb, 4), dtype=np.int64)
+    for p in range(nb):
+        target[p, 0], target[p, 1] = hot[p, 1] - x0, hot[p, 2] - x0
+        target[p, 2], target[p, 3] = hot[p, 3] - y0, hot[p, 4] - y0
     if weight > 0.0:
         r = off_within[0]
         oy = np.full(1, r - y0, dtype=np.int64)
@@ -350,34 +391,35 @@ def _inhibit_clip(vals, pos, rect, shape, taps0, taps1, taps2, off_within, weigh
         ot = np.full(1, r - t0, dtype=np.int64)
         runs_y = K._runs(taps2, oy, 0, shape[2], ny, n[2])
         runs_x = K._runs(taps1, ox, 0, shape[1], nx, n[1])
-        want_x = np.zeros((nt, 4), dtype=np.int64)  # x' in the window, y' in the box
-        want_t = np.zeros((nt, 4), dtype=np.int64)  # both in the box
-        for t in range(nt):
-            if target[t, 0] < target[t, 1]:
-                ja, jb = _preimage(target[t, 2], target[t, 3], runs_y)
-                _grow(want_x, t, target[t, 0], target[t, 1], ja, jb)
-                ia, ib = _preimage(target[t, 0], target[t, 1], runs_x)
-                _grow(want_t, t, ia, ib, ja, jb)
-        inh, ipos = _theta(vals, pos, rect, taps0, K._runs(taps0, ot, 0, shape[0], nt, n[0]), want_t)
-        inh, ipos = _x(inh, ipos, want_t, taps1, ox, shape[1], nx, n[1], want_x)
+        want_x = np.zeros((nb, 4), dtype=np.int64)  # x' in the window, y' in the box
+        want_t = np.zeros((nb, 4), dtype=np.int64)  # both in the box
+        for p in range(nb):
+            ja, jb = _preimage(target[p, 2], target[p, 3], runs_y)
+            _grow(want_x, p, target[p, 0], target[p, 1], ja, jb)
+            ia, ib = _preimage(target[p, 0], target[p, 1], runs_x)
+            _grow(want_t, p, ia, ib, ja, jb)
+        runs_t = K._runs(taps0, ot, 0, shape[0], nt, n[0])
+        inh, ipos = _theta_bands(vals, pos, rect, taps0, runs_t, layer, want_t)
+        inh, ipos = _x(inh, ipos, want_t, taps1, ox, shape[1], nx, n[1], want_x)  # band by band
         inh, ipos = _y(inh, ipos, want_x, taps2, oy, shape[2], ny, n[2], target)
     else:
         inh, ipos = _zeros_over(target)
-    # the surviving cells, first over the rectangles evaluated, then each layer's own
+    # the surviving cells, first over the bands, then each layer's own rectangle
     act, apos = _zeros_over(target)
     qt = np.zeros(nt, dtype=np.bool_)
     qx = np.zeros(nx, dtype=np.bool_)
     qy = np.zeros(ny, dtype=np.uint8)
     alive = np.zeros((nt, 4), dtype=np.int64)
-    for t in range(nt):
-        xa, ya = target[t, 0], target[t, 2]
+    for p in range(nb):
+        t = layer[p]
+        xa, ya = target[p, 0], target[p, 2]
         e = t0 + t
-        h, w = _size(target, t)
+        h, w = _size(target, p)
         ex, ey = x0 - rect[e, 0], y0 - rect[e, 2]  # the cells above lie inside the layer's rectangle
         for x in range(h):
             e_row = _row(vals, pos, rect, e, xa + x + ex)
-            i_row = _row(inh, ipos, target, t, x)
-            a_row = _row(act, apos, target, t, x)
+            i_row = _row(inh, ipos, target, p, x)
+            a_row = _row(act, apos, target, p, x)
             row_any = np.uint8(0)
             for y in range(w):
                 v = e_row[ya + y + ey] - weight * i_row[y] - global_inh
@@ -396,13 +438,15 @@ def _inhibit_clip(vals, pos, rect, shape, taps0, taps1, taps2, off_within, weigh
                     c -= 1
                 _grow(alive, t, xa + x, xa + x + 1, ya + a, ya + c + 1)
     out, opos = _zeros_over(alive)
-    for t in range(nt):
-        h, w = _size(alive, t)
-        xs, ys = alive[t, 0] - target[t, 0], alive[t, 2] - target[t, 2]
-        for x in range(h):
-            d = _row(out, opos, alive, t, x)
-            s = _row(act, apos, target, t, xs + x)[ys : ys + w]
-            for y in range(w):
+    for p in range(nb):  # the bands of a layer never share a row
+        t = layer[p]
+        if alive[t, 0] >= alive[t, 1]:
+            continue
+        for x in range(max(target[p, 0], alive[t, 0]), min(target[p, 1], alive[t, 1])):
+            ya, yb = max(target[p, 2], alive[t, 2]), min(target[p, 3], alive[t, 3])
+            d = _row(out, opos, alive, t, x - alive[t, 0])[ya - alive[t, 2] : yb - alive[t, 2]]
+            s = _row(act, apos, target, p, x - target[p, 0])[ya - target[p, 2] : yb - target[p, 2]]
+            for y in range(yb - ya):
                 d[y] = s[y]
     return t0, x0, y0, wshape, out, opos, alive, qt, qx, qy.astype(np.bool_)
 
