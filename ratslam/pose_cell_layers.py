@@ -182,19 +182,23 @@ def _theta_image(rect, runs, lout):
 
 
 @njit(cache=True)
-def _theta(vals, pos, rect, kw, runs, want):
-    """A θ' operator (one set of taps) evaluated over the rectangles ``want``."""
+def _theta(vals, pos, rect, kw, runs, layer, want):
+    """A θ' operator (one set of taps) evaluated over rectangles ``want`` of output layers
+    ``layer`` (several rectangles may share a layer)."""
     out, opos = _zeros_over(want)
-    for r in range(runs.shape[0]):
-        k = kw[0, runs[r, 0]]
-        for i in range(runs[r, 2], runs[r, 3]):
-            o = i + runs[r, 1]
-            xa, xb = max(rect[i, 0], want[o, 0]), min(rect[i, 1], want[o, 1])
-            ya, yb = max(rect[i, 2], want[o, 2]), min(rect[i, 3], want[o, 3])
-            if xa >= xb or ya >= yb:
+    for p in range(want.shape[0]):
+        if want[p, 0] >= want[p, 1]:
+            continue
+        o = layer[p]
+        for r in range(runs.shape[0]):  # the taps in ascending order, as in the whole box
+            i = o - runs[r, 1]
+            if i < runs[r, 2] or i >= runs[r, 3]:
                 continue
+            k = kw[0, runs[r, 0]]
+            xa, xb = max(rect[i, 0], want[p, 0]), min(rect[i, 1], want[p, 1])
+            ya, yb = max(rect[i, 2], want[p, 2]), min(rect[i, 3], want[p, 3])
             for x in range(xa, xb):
-                d = _row(out, opos, want, o, x - want[o, 0])[ya - want[o, 2] : yb - want[o, 2]]
+                d = _row(out, opos, want, p, x - want[p, 0])[ya - want[p, 2] : yb - want[p, 2]]
                 s = _row(vals, pos, rect, i, x - rect[i, 0])[ya - rect[i, 2] : yb - rect[i, 2]]
                 for q in range(yb - ya):
                     d[q] += k * s[q]
@@ -277,7 +281,7 @@ def _theta_op(vals, pos, rect, off, kw, length, lout, n):
     """A θ' operator over the layers' rectangles: (values, offsets, rectangles)."""
     runs = K._runs(kw, off, 0, length, lout, n)
     want = _theta_image(rect, runs, lout)
-    out, opos = _theta(vals, pos, rect, kw, runs, want)
+    out, opos = _theta(vals, pos, rect, kw, runs, np.arange(lout), want)
     return out, opos, want
 
 
@@ -338,30 +342,6 @@ def _above(vals, pos, rect, level, shape):
 
 
 @njit(cache=True)
-def _theta_bands(vals, pos, rect, kw, runs, layer, want):
-    """A θ' operator (one set of taps) evaluated over rectangles ``want`` of output layers
-    ``layer`` (several may share a layer)."""
-    out, opos = _zeros_over(want)
-    for p in range(want.shape[0]):
-        if want[p, 0] >= want[p, 1]:
-            continue
-        o = layer[p]
-        for r in range(runs.shape[0]):  # the taps in ascending order, as in the whole box
-            i = o - runs[r, 1]
-            if i < runs[r, 2] or i >= runs[r, 3]:
-                continue
-            k = kw[0, runs[r, 0]]
-            xa, xb = max(rect[i, 0], want[p, 0]), min(rect[i, 1], want[p, 1])
-            ya, yb = max(rect[i, 2], want[p, 2]), min(rect[i, 3], want[p, 3])
-            for x in range(xa, xb):
-                d = _row(out, opos, want, p, x - want[p, 0])[ya - want[p, 2] : yb - want[p, 2]]
-                s = _row(vals, pos, rect, i, x - rect[i, 0])[ya - rect[i, 2] : yb - rect[i, 2]]
-                for q in range(yb - ya):
-                    d[q] += k * s[q]
-    return out, opos
-
-
-@njit(cache=True)
 def _inhibit_clip(vals, pos, rect, shape, taps0, taps1, taps2, off_within, weight, global_inh, n):
     """:func:`ratslam.pose_cell_kernels.inhibit_clip` on an excited box held as layers: the
     window's local start (``t0, x0, y0``) and shape, the surviving activity over it as layers
@@ -399,7 +379,7 @@ def _inhibit_clip(vals, pos, rect, shape, taps0, taps1, taps2, off_within, weigh
             ia, ib = _preimage(target[p, 0], target[p, 1], runs_x)
             _grow(want_t, p, ia, ib, ja, jb)
         runs_t = K._runs(taps0, ot, 0, shape[0], nt, n[0])
-        inh, ipos = _theta_bands(vals, pos, rect, taps0, runs_t, layer, want_t)
+        inh, ipos = _theta(vals, pos, rect, taps0, runs_t, layer, want_t)
         inh, ipos = _x(inh, ipos, want_t, taps1, ox, shape[1], nx, n[1], want_x)  # band by band
         inh, ipos = _y(inh, ipos, want_x, taps2, oy, shape[2], ny, n[2], target)
     else:
@@ -556,9 +536,7 @@ def step_one_box(
     at[0] = (grown[0] + t0) % n[0]
     at[1] = (grown[1] + x0) % n[1]
     at[2] = (grown[2] + y0) % n[2]
-    start, shape, vals, pos, rect, mass = _crop(vals, pos, rect, wshape, qt, qx, qy, at, n)
-    total = 0.0
-    total += mass
+    start, shape, vals, pos, rect, total = _crop(vals, pos, rect, wshape, qt, qx, qy, at, n)
     if not total > 0.0:
         return False, start, np.zeros((0, 0, 0)), np.zeros(3)
     # 4. normalisation (every value the layers hold is the box's)

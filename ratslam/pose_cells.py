@@ -17,8 +17,8 @@ time (all kernels are separable Gaussians), compiled in :mod:`ratslam.pose_cell_
 holding packets far apart is stepped packet group by packet group (:mod:`ratslam.pose_cell_split`)
 and a large box whose heading layers are mostly empty layer by layer
 (:mod:`ratslam.pose_cell_layers`), both bit for bit the whole box's step. The full grid is
-materialised only when asked for (:attr:`PoseCells.activity`). The result equals the same update run over the whole grid
-(:mod:`ratslam.pose_cells_reference`) to rounding (tested).
+materialised only when asked for (:attr:`PoseCells.activity`). The result equals the same update
+run over the whole grid (:mod:`ratslam.pose_cells_reference`) to rounding (tested).
 
 Internally the local array is laid out (θ', x', y'); public coordinates are (x', y', θ').
 """
@@ -259,7 +259,8 @@ class PoseCells:
             start, act = self._boxes[0]
             odometry = (v_trans_dt * cfg.trans_gain / cfg.cell_size_m, v_rot_dt / cfg.theta_cell_rad)
             pi_and_peak = (self._cos, self._sin, *odometry, cfg.peak_radius_cells)
-            rect = pose_cell_layers.sparse_windows(act, LAYERED_MAX_COVER) if act.size >= LAYERED_MIN_CELLS else None
+            large = act.size >= LAYERED_MIN_CELLS
+            rect = pose_cell_layers.sparse_windows(act, LAYERED_MAX_COVER) if large else None
             if rect is not None and len(rect):  # a large box whose layers are mostly empty
                 alive, start, act, peak = pose_cell_layers.step_one_box(act, rect, start, *network, *pi_and_peak)
             else:
@@ -353,8 +354,9 @@ def compile_kernels(config: RatSLAMConfig, part: str) -> None:
         cells.path_integrate(0.1, 0.05)
         cells._update_peak()
         cells.cells_at_least(0.5)
-    elif part == "layers":  # a large box's step, layer by layer
-        rect = pose_cell_layers.sparse_windows(act, LAYERED_MAX_COVER)
+    elif part == "layers":  # a large box's step, layer by layer (this one-cell box is not sparse)
+        pose_cell_layers.sparse_windows(act, LAYERED_MAX_COVER)
+        rect = pose_cell_layers.layer_windows(act)
         pose_cell_layers.step_one_box(act, rect, start, *cells._network, cells._cos, cells._sin, 0.1, 0.05, 1)
     else:
         raise ValueError(f"unknown kernel part {part!r} (known: {', '.join(KERNEL_PARTS)})")
